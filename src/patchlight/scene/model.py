@@ -1,0 +1,141 @@
+"""The scene as one world-space triangle soup, plus materials, lights and sky.
+
+Every importer (glTF, built-in scenes) produces a `Scene`; every later stage reads
+only these arrays. Units: metres, +Y up, linear RGB; light units as docs/architecture.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import PatchlightError
+
+
+@dataclass
+class Material:
+    """A glTF metallic-roughness material reduced to what lighting needs.
+
+    base_color: (4,) linear RGBA factor.  base_color_texture: (H, W, 4) float32 linear
+    (RGB converted from sRGB, alpha kept linear) or None.  emissive: (3,) radiance factor
+    (emissiveFactor x KHR_materials_emissive_strength).  emissive_texture: (H, W, 3) linear or None.
+    normal_texture: (H, W, 3) float32 in [0, 1] (decoded as 2t - 1) or None.
+    Textures are sampled with uv0, glTF convention (v = 0 is the image's top row).
+    """
+
+    name: str = "default"
+    base_color: np.ndarray = field(default_factory=lambda: np.ones(4, np.float32))
+    base_color_texture: np.ndarray | None = None
+    emissive: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
+    emissive_texture: np.ndarray | None = None
+    normal_texture: np.ndarray | None = None
+    double_sided: bool = False
+    shininess: float = 16.0
+    reflectivity: float = 0.0
+
+    @property
+    def is_emissive(self) -> bool:
+        return bool(np.any(self.emissive > 0))
+
+
+@dataclass
+class Light:
+    """A KHR_lights_punctual light in radiometric units.
+
+    kind: "directional" | "point" | "spot".  color: (3,) linear.  intensity: for a
+    directional light the irradiance Es (W/m^2 on a perpendicular surface); for point and
+    spot the radiant intensity (W/sr).  direction: (3,) unit vector the light travels along
+    (glTF's -Z of the light node).  range: metres, or None for infinite.  Cone angles in radians.
+    falloff: "inverse-square" | "range" | None (None: take the bake's --falloff).
+    angle: apparent angular diameter of a sun, radians (0 = hard shadows).
+    """
+
+    kind: str
+    color: np.ndarray
+    intensity: float
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
+    direction: np.ndarray = field(default_factory=lambda: np.array([0, -1, 0], np.float32))
+    range: float | None = None
+    inner_cone: float = 0.0
+    outer_cone: float = np.pi / 4
+    falloff: str | None = None
+    angle: float = 0.0
+    name: str = ""
+
+    @property
+    def radiometric(self) -> np.ndarray:
+        """(3,) colour x intensity."""
+        return np.asarray(self.color, np.float32) * np.float32(self.intensity)
+
+
+@dataclass
+class Scene:
+    """One triangle soup in world space.
+
+    positions (V, 3) f32; normals (V, 3) f32 unit; uv0 (V, 2) f32; uv1 (V, 2) f32 or None
+    (the lightmap UVs, TEXCOORD_1); tangents (V, 4) f32 or None; colors (V, 4) f32 or None;
+    indices (T, 3) i32; material_ids (T,) i32 into `materials`.
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    uv0: np.ndarray
+    indices: np.ndarray
+    material_ids: np.ndarray
+    materials: list[Material]
+    lights: list[Light] = field(default_factory=list)
+    sky: "object | None" = None
+    uv1: np.ndarray | None = None
+    tangents: np.ndarray | None = None
+    colors: np.ndarray | None = None
+    name: str = "scene"
+    source: str = ""
+    extras: dict = field(default_factory=dict)
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.indices.shape[0])
+
+    def triangle_vertices(self) -> np.ndarray:
+        """(T, 3, 3) f32 world-space corners."""
+        return self.positions[self.indices]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounds (lo, hi), each (3,)."""
+        used = self.positions[np.unique(self.indices)]
+        return used.min(axis=0), used.max(axis=0)
+
+    def has_light(self) -> bool:
+        """True when anything lights the scene: a lamp, an emissive material or a sky."""
+        emissive = any(m.is_emissive or m.emissive_texture is not None for m in self.materials)
+        sky_lit = self.sky is not None and not self.sky.is_black()
+        return bool(self.lights) or emissive or sky_lit
+
+    def validate(self) -> None:
+        """Refuse NaN or infinite positions and out-of-range indices with one clear line."""
+        if not np.all(np.isfinite(self.positions)):
+            bad = int(np.count_nonzero(~np.isfinite(self.positions).all(axis=1)))
+            raise PatchlightError(f"{self.source or self.name}: {bad} vertex positions are NaN or infinite")
+        if self.indices.size and (self.indices.min() < 0 or self.indices.max() >= len(self.positions)):
+            raise PatchlightError(f"{self.source or self.name}: triangle indices point outside the vertex array")
+        if self.n_triangles == 0:
+            raise PatchlightError(f"{self.source or self.name}: no triangles to light")
+
+
+def face_normals(positions: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-triangle unit normals (T, 3) and areas (T,). Degenerate triangles get a zero normal."""
+    tri = positions[indices].astype(np.float64)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(cross, axis=1)
+    normal = np.divide(cross, length[:, None], out=np.zeros_like(cross), where=length[:, None] > 0)
+    return normal.astype(np.float32), (0.5 * length).astype(np.float32)
+
+
+def vertex_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Area-weighted smooth normals (V, 3) for meshes that carry none."""
+    normal, area = face_normals(positions, indices)
+    acc = np.zeros((len(positions), 3), np.float64)
+    for corner in range(3):
+        np.add.at(acc, indices[:, corner], normal * area[:, None])
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.divide(acc, length, out=np.tile([0, 1.0, 0], (len(acc), 1)), where=length > 0).astype(np.float32)
