@@ -1,0 +1,50 @@
+"""`patchlight` command line: one module per subcommand, each with register(subparsers).
+
+User errors (PatchlightError) print one line and exit 2; Ctrl-C exits 130 after the
+subcommand has cleaned up.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import BakeInterrupted, PatchlightError
+
+SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake")
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own usage errors also exit 2, in one line
+        self.exit(2, f"patchlight: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    import importlib
+
+    parser = _Parser(prog="patchlight", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name in SUBCOMMANDS:
+        try:
+            module = importlib.import_module(f"patchlight.cli.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"patchlight.cli.{name}":
+                raise
+            continue
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except PatchlightError as exc:
+        print(f"patchlight: error: {exc}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, BakeInterrupted):
+        print("patchlight: interrupted; nothing partial was written", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
