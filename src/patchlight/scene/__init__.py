@@ -1,0 +1,27 @@
+"""Scenes: the data model, glTF I/O and the built-in scenes."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import PatchlightError
+from .builtin import BUILTIN_SCENES, builtin_scene
+from .model import Light, Material, Scene
+from .sky import Sky
+
+__all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "Sky", "load_scene"]
+
+
+def load_scene(spec: str | Path) -> Scene:
+    """A built-in scene by name ("room", "cornell") or a .glb/.gltf file by path."""
+    if str(spec) in BUILTIN_SCENES and not Path(spec).exists():
+        return builtin_scene(str(spec))
+    path = Path(spec)
+    if path.is_dir() and (path / "scene.glb").exists():
+        path = path / "scene.glb"
+    if path.suffix.lower() not in (".glb", ".gltf"):
+        if not path.exists():
+            raise PatchlightError(f"{spec}: no such file, and not a built-in scene ({', '.join(BUILTIN_SCENES)})")
+        raise PatchlightError(f"{spec}: not a glTF file (expected .glb or .gltf)")
+    from .gltf import load_gltf
+
+    return load_gltf(path)

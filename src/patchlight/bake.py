@@ -1,0 +1,216 @@
+"""The bake pipeline: Scene -> atlas -> patches -> direct -> gather -> passes -> lightmap.
+
+Each stage is a function of arrays (docs/architecture.md); this module only strings them
+together, times them, and writes the results. The CLI and the Python API both call `bake`.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .atlas.patches import Patches
+from .config import BakeSettings
+from .errors import PatchlightError
+from .progress import Progress
+from .radiosity import adaptive
+from .radiosity.direct import direct_light
+from .radiosity.gather import Gatherer
+from .radiosity.solve import FormFactors, Solution, estimate_matrix_bytes, solve
+from .rays.tracer import Tracer
+from .scene.model import Scene
+
+INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
+DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
+
+
+@dataclass
+class BakeResult:
+    """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
+    solution, the (possibly re-indexed) scene with its lightmap UVs, and stats for bake.json."""
+
+    scene: Scene
+    patches: Patches
+    lightmap: np.ndarray
+    status: np.ndarray
+    solution: Solution
+    stats: dict = field(default_factory=dict)
+    pass_images: list = field(default_factory=list)
+
+
+def _check_scene(scene: Scene) -> None:
+    scene.validate()
+    if not scene.has_light():
+        raise PatchlightError(f"{scene.source or scene.name}: nothing lights the scene "
+                              "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
+
+
+def _tri_uv1(scene: Scene) -> np.ndarray:
+    return np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
+
+
+def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
+    """(N,) distance to lift ray origins off each patch: a twentieth of its texel, and never
+    less than float32's reach at the scene's size."""
+    lo, hi = scene.bounds()
+    floor = 2e-4 * float(np.max(hi - lo))
+    return np.maximum(0.05 * patches.size, floor).astype(np.float32)
+
+
+def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
+                     progress: Progress):
+    """Run the adaptive sampler; returns (status, phases)."""
+    n = len(patches)
+    status = np.zeros(n, np.int8)
+    if settings.adaptive:
+        grid, phases = adaptive.sampler_plan(patches)
+    else:
+        grid, phases = np.arange(n), []
+    with progress.stage("gather", total=n) as advance:
+        _compute(ff, grid, status, advance)
+        B = None
+        for phase in phases:
+            solution = _solve(ff, patches, direct, status, phases, settings, B)
+            B, G = solution.excident, solution.gathered
+            for step in phase:
+                _compute(ff, adaptive.decide(step, status, G, settings.accuracy), status, advance)
+    return status, phases
+
+
+def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
+    status[rows] = adaptive.COMPUTED
+    back = ff.add(rows.astype(np.int64), progress=advance)
+    status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
+
+
+def _solve(ff, patches, direct, status, phases, settings, B0=None, on_pass=None) -> Solution:
+    return solve(ff, direct, patches.rho, patches.emission, status, phases,
+                 settings.passes, settings.tolerance, B0, on_pass)
+
+
+def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) -> np.ndarray:
+    """(H, W, 3) lightmap: texels inside geometry filled from valid neighbours, then grown
+    past chart borders by DILATE_TEXELS rings."""
+    from .imaging.dilate import dilate
+
+    image = patches.to_image(incident.astype(np.float32))
+    covered = patches.index >= 0
+    valid = covered & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
+    image, valid = dilate(image, valid, texels=max(patches.width, patches.height), allowed=covered)
+    image[covered & ~valid] = 0.0
+    image, _ = dilate(image, covered, texels=DILATE_TEXELS)
+    return image
+
+
+def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
+    """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
+    from .atlas.raster import rasterize
+    from .atlas.uvs import ensure_lightmap_uvs, estimate_bake_bytes
+
+    settings = settings or BakeSettings()
+    _check_scene(scene)
+    start = time.perf_counter()
+    with Progress(quiet) as progress:
+        with progress.stage("lightmap UVs"):
+            scene, width, height, uv_info = ensure_lightmap_uvs(
+                scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
+                padding=settings.padding)
+        estimate_bake_bytes(width, height)
+        with progress.stage("patches"):
+            patches, _ = rasterize(scene, width, height)
+        if len(patches) == 0:
+            raise PatchlightError(f"{scene.source}: no lightmap texel is covered by a triangle")
+        with progress.stage("tracer"):
+            tracer = Tracer(scene.positions, scene.indices)
+        offset = ray_offsets(scene, patches)
+        origins = patches.position + offset[:, None] * patches.normal
+        with progress.stage("direct light"):
+            sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
+            direct = direct_light(origins, patches.normal, scene.lights, tracer, settings.falloff,
+                                  sun_angle, settings.sun_samples)
+        rays_direct = tracer.rays_traced
+        size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
+        gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
+        keep = estimate_matrix_bytes(len(patches), gatherer.rays_per_patch) <= settings.max_memory
+        ff = FormFactors(gatherer, keep)
+        gather_start = time.perf_counter()
+        status, phases = _gather_adaptive(ff, patches, direct, settings, progress)
+        gather_seconds = time.perf_counter() - gather_start
+        pass_images = []
+        with progress.stage("passes", total=settings.passes) as advance:
+            def on_pass(k, change, incident):
+                advance(1, note=f"pass {k}: change {change:.2e}")
+                if settings.save_passes:
+                    pass_images.append(fill_lightmap(patches, incident, status))
+
+            solution = _solve(ff, patches, direct, status, phases, settings, on_pass=on_pass)
+        with progress.stage("lightmap"):
+            lightmap = fill_lightmap(patches, solution.incident, status)
+    counts = np.bincount(status, minlength=4)
+    stats = {
+        "resolution": [width, height],
+        "patches": len(patches),
+        "computed_patches": int(counts[adaptive.COMPUTED]),
+        "interpolated_patches": int(counts[adaptive.INTERPOLATED]),
+        "inside_geometry_patches": int(counts[adaptive.INSIDE]),
+        "gather": settings.gather,
+        "rays_per_patch": gatherer.rays_per_patch,
+        "rays_traced": tracer.rays_traced,
+        "rays_direct": rays_direct,
+        "rays_gather": tracer.rays_traced - rays_direct,
+        "rays_per_second": (tracer.rays_traced - rays_direct) / max(gather_seconds, 1e-9),
+        "lost_rays": ff.lost_rays,
+        "form_factor_matrix": {"kept": keep, "nonzeros": ff.nnz, "bytes": ff.nbytes},
+        "passes": len(solution.changes),
+        "pass_changes": solution.changes,
+        "converged": solution.changes[-1] < settings.tolerance,
+        "seconds_per_stage": dict(progress.seconds),
+        "seconds_total": time.perf_counter() - start,
+        "uv": uv_info,
+        "warnings": list(scene.extras.get("warnings", [])) + list(uv_info.get("warnings", [])),
+    }
+    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)
+
+
+def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
+    """Write lightmap.exr, lightmap.png, adaptive.png, scene.glb, bake.json (and the pass
+    pictures), each to a temporary name then renamed; returns {name: path}."""
+    import io
+
+    from PIL import Image
+
+    from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
+    from .imaging.io import write_exr, write_png
+    from .scene.gltf import save_baked_glb
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
+    files = {}
+    write_exr(out_dir / "lightmap.exr", result.lightmap)
+    files["lightmap.exr"] = out_dir / "lightmap.exr"
+    for name, pixels in [("lightmap.png", exposed_png_pixels(result.lightmap, k)),
+                         ("adaptive.png", adaptive.debug_image(result.patches, result.status))]:
+        write_png(out_dir / name, pixels)
+        files[name] = out_dir / name
+    for i, image in enumerate(result.pass_images, start=1):
+        write_png(out_dir / f"pass_{i:02d}.png", exposed_png_pixels(image, k))
+        files[f"pass_{i:02d}.png"] = out_dir / f"pass_{i:02d}.png"
+    value_range = float(max(1.0, result.lightmap.max()))
+    buf = io.BytesIO()
+    Image.fromarray(rgbm_encode(result.lightmap, value_range), "RGBA").save(buf, format="PNG")
+    meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
+            "threeLightMapIntensity": float(np.pi), "exposure": k}
+    save_baked_glb(result.scene, out_dir / "scene.glb", buf.getvalue(), meta)
+    files["scene.glb"] = out_dir / "scene.glb"
+    summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
+               **result.stats, "files": sorted(files)}
+    from .imaging.io import atomic_path
+
+    with atomic_path(out_dir / "bake.json") as tmp:
+        Path(tmp).write_text(json.dumps(summary, indent=2, default=float))
+    files["bake.json"] = out_dir / "bake.json"
+    return summary

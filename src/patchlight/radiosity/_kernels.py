@@ -1,0 +1,81 @@
+"""Numba kernels of the gather: ray generation and the item buffer lookup."""
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+SKY = -1        # the ray escaped: it sees the sky
+BACK_FACE = -2  # the ray hit a triangle from behind: the patch may lie inside geometry
+LOST = -3       # the hit's lightmap texel is covered by no patch
+
+
+@nb.njit(cache=True, inline="always")
+def _basis(n):
+    """Orthonormal tangent and bitangent for unit normal n (Duff et al. 2017)."""
+    sign = 1.0 if n[2] >= 0.0 else -1.0
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    t = np.array([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]])
+    s = np.array([b, sign + n[1] * n[1] * a, -n[1]])
+    return t, s
+
+
+@nb.njit(cache=True, parallel=False)
+def make_rays(position, normal, offset, rows, local_dirs, angles):
+    """Origins and directions (len(rows) * D, 3) f32 for the patches `rows`.
+
+    position, normal: (N, 3); offset: (N,) distance to lift each origin along its normal;
+    local_dirs: (D, 3) directions with z along the normal; angles: (len(rows),) rotation of
+    the pattern about each patch's normal (radians).
+    """
+    d = local_dirs.shape[0]
+    origins = np.empty((rows.shape[0] * d, 3), np.float32)
+    dirs = np.empty((rows.shape[0] * d, 3), np.float32)
+    for k in range(rows.shape[0]):
+        p = rows[k]
+        n = normal[p].astype(np.float64)
+        t, s = _basis(n)
+        c, si = np.cos(angles[k]), np.sin(angles[k])
+        tr = c * t + si * s
+        sr = -si * t + c * s
+        o = position[p] + offset[p] * normal[p]
+        for j in range(d):
+            x, y, z = local_dirs[j, 0], local_dirs[j, 1], local_dirs[j, 2]
+            i = k * d + j
+            for a in range(3):
+                origins[i, a] = o[a]
+                dirs[i, a] = x * tr[a] + y * sr[a] + z * n[a]
+    return origins, dirs
+
+
+@nb.njit(cache=True)
+def resolve_hits(tri, u, v, front, tri_uv1, width, height, index):
+    """The item buffer: the patch each ray sees, or SKY / BACK_FACE / LOST. (R,) i32.
+
+    tri, u, v, front: the tracer's hits; tri_uv1: (T, 3, 2) lightmap UVs of each triangle's
+    corners; index: (H, W) patch id per texel. A hit on an uncovered texel takes the nearest
+    covered texel of its 3 x 3 neighbourhood.
+    """
+    out = np.empty(tri.shape[0], np.int32)
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        if t < 0:
+            out[i] = SKY
+            continue
+        if not front[i]:
+            out[i] = BACK_FACE
+            continue
+        w0 = 1.0 - u[i] - v[i]
+        su = w0 * tri_uv1[t, 0, 0] + u[i] * tri_uv1[t, 1, 0] + v[i] * tri_uv1[t, 2, 0]
+        sv = w0 * tri_uv1[t, 0, 1] + u[i] * tri_uv1[t, 1, 1] + v[i] * tri_uv1[t, 2, 1]
+        x = min(max(int(su * width), 0), width - 1)
+        y = min(max(int(sv * height), 0), height - 1)
+        found = index[y, x]
+        if found < 0:
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    yy, xx = y + dy, x + dx
+                    if found < 0 and 0 <= yy < height and 0 <= xx < width:
+                        found = index[yy, xx]
+        out[i] = found if found >= 0 else LOST
+    return out

@@ -1,0 +1,124 @@
+"""Adaptive lightmap sampling, after the radiosity article.
+
+Compute every 4th texel (spacing 4). Then, halving the spacing each round: Pass Type 1
+examines texels halfway between two decided texels (horizontally or vertically), Pass
+Type 2 the centre of four. A texel gets its own gather only when its neighbours' ratio falls
+below threshold = accuracy ** spacing in any channel; otherwise it is their mean. Texels
+whose neighbours are uncovered, in another UV chart or inside geometry are always computed,
+so nothing is interpolated across chart borders; a texel whose neighbours all lie inside
+geometry is itself marked inside.
+
+What is interpolated is the gathered light G = S + F B (sky and bounces). Direct light is
+ray traced at every texel, so sun-shadow edges stay sharp whatever the sampler decides.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..atlas.patches import Patches
+
+UNDECIDED, COMPUTED, INTERPOLATED, INSIDE = 0, 1, 2, 3
+SPACING = 4
+
+
+@dataclass
+class Step:
+    """One pass of the sampler: texels `targets` (K,) each with neighbours `neighbours`
+    (K, 2 or 4) patch ids, -1 where the neighbour is missing, uncovered or in another chart.
+    spacing: the round's spacing (4 or 2), for the threshold."""
+
+    targets: np.ndarray
+    neighbours: np.ndarray
+    spacing: int
+
+
+def _ids_at(p: Patches, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    inside = (y >= 0) & (y < p.height) & (x >= 0) & (x < p.width)
+    ids = np.full(y.shape, -1, np.int64)
+    ids[inside] = p.index[y[inside], x[inside]]
+    return ids
+
+
+def _step(p: Patches, select, offsets, spacing: int) -> Step:
+    """The patches whose texel (y, x) satisfies select(y, x), with neighbours at offsets."""
+    y, x = p.texel_y.astype(np.int64), p.texel_x.astype(np.int64)
+    targets = np.flatnonzero(select(y, x))
+    ty, tx = y[targets], x[targets]
+    nbs = np.stack([_ids_at(p, ty + dy, tx + dx) for dy, dx in offsets], axis=1)
+    same_chart = np.where(nbs >= 0, p.chart[np.maximum(nbs, 0)] == p.chart[targets][:, None], False)
+    return Step(targets, np.where(same_chart, nbs, -1), spacing)
+
+
+def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
+    """The initial grid (patch ids on every 4th texel) and the rounds of steps that follow:
+    [[type 1 horizontal, type 1 vertical], [type 2]] for spacing 4, then for spacing 2."""
+    y, x = p.texel_y, p.texel_x
+    grid = np.flatnonzero((y % SPACING == 0) & (x % SPACING == 0))
+    phases = []
+    spacing = SPACING
+    while spacing > 1:
+        s, h = spacing, spacing // 2
+        phases.append([
+            _step(p, lambda y, x: (y % s == 0) & (x % s == h), [(0, -h), (0, h)], s),
+            _step(p, lambda y, x: (y % s == h) & (x % s == 0), [(-h, 0), (h, 0)], s),
+        ])
+        phases.append([_step(p, lambda y, x: (y % s == h) & (x % s == h), [(-h, 0), (h, 0), (0, -h), (0, h)], s)])
+        spacing = h
+    return grid, phases
+
+
+def ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The article's ratio2, elementwise: 1 when both are 0, 0 when one is, else min/max."""
+    hi, lo = np.maximum(a, b), np.minimum(a, b)
+    out = np.divide(lo, hi, out=np.zeros_like(hi, dtype=np.float64), where=hi > 0)
+    return np.where((a == 0) & (b == 0), 1.0, out)
+
+
+def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float) -> np.ndarray:
+    """Decide every target of `step` in place in `status`; returns the ids to compute now.
+
+    G: (N, 3) current gathered light of every decided patch."""
+    nbs = step.neighbours
+    nb_status = np.where(nbs >= 0, status[np.maximum(nbs, 0)], -1)
+    all_inside = np.all(nb_status == INSIDE, axis=1)
+    usable = np.all((nb_status == COMPUTED) | (nb_status == INTERPOLATED), axis=1)
+    threshold = accuracy ** step.spacing
+    g = G[np.maximum(nbs, 0)]  # (K, m, 3)
+    pairs = [(0, 1)] if nbs.shape[1] == 2 else [(0, 1), (2, 3)]
+    similar = np.ones(len(nbs), bool)
+    for i, j in pairs:
+        similar &= np.all(ratio(g[:, i], g[:, j]) > threshold, axis=1)
+    pending = status[step.targets] == UNDECIDED
+    status[step.targets[pending & all_inside]] = INSIDE
+    status[step.targets[pending & ~all_inside & usable & similar]] = INTERPOLATED
+    compute = step.targets[pending & ~all_inside & ~(usable & similar)]
+    status[compute] = COMPUTED
+    return compute
+
+
+def interpolate(G: np.ndarray, status: np.ndarray, phases: list[list[Step]]) -> np.ndarray:
+    """Fill G (N, 3) in place at interpolated texels, in the sampler's order, each the mean
+    of its neighbours. Undecided texels get the mean of whatever neighbours have values
+    (a provisional estimate used while the sampler is still deciding)."""
+    have = (status == COMPUTED) | (status == INTERPOLATED)
+    for phase in phases:
+        for step in phase:
+            todo = status[step.targets] != COMPUTED
+            t, nbs = step.targets[todo], step.neighbours[todo]
+            w = (nbs >= 0) & have[np.maximum(nbs, 0)]
+            count = w.sum(axis=1)
+            mean = (G[np.maximum(nbs, 0)] * w[..., None]).sum(axis=1) / np.maximum(count, 1)[:, None]
+            fill = count > 0
+            G[t[fill]] = mean[fill]
+            G[t[~fill]] = 0.0
+            have[t[fill]] = True
+    G[status == INSIDE] = 0.0
+    return G
+
+
+def debug_image(p: Patches, status: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8: computed red, interpolated green, inside geometry blue, uncovered black."""
+    colours = np.array([[0, 0, 0], [220, 40, 40], [40, 200, 60], [40, 80, 230]], np.uint8)
+    return p.to_image(colours[status])

@@ -1,0 +1,98 @@
+"""The gather: each computed patch looks at the scene through its hemicube (or stratified
+cosine rays), and the item buffer turns what each ray hits into a patch id or the sky.
+
+One patch's row of the form-factor matrix F holds the weight of every patch it sees (the
+multiplier-map weights of the pixels that see it, summed), and its sky term S the weighted
+sky radiance of the rays that escaped. Geometry does not change between passes, so F is
+traced once and every pass is a sparse product: I = D + S + F B.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..atlas.patches import Patches
+from ..rays.tracer import Tracer
+from . import _kernels
+from .hemicube import multiplier_map, stratified_directions
+
+RAYS_PER_CHUNK = 1 << 20
+
+
+@dataclass
+class GatherRows:
+    """Rows of the gather for some patches. F: (R, N) CSR f32; S: (R, 3) f32 sky term;
+    back_fraction: (R,) share of rays that hit back faces; lost: rays on uncovered texels."""
+
+    F: sp.csr_matrix
+    S: np.ndarray
+    back_fraction: np.ndarray
+    lost: int
+
+
+class Gatherer:
+    """Traces gather rays for chosen patches of one scene.
+
+    method: "hemicube" (size = pixels across the front face) or "stratified" (size = rays).
+    """
+
+    def __init__(self, patches: Patches, tri_uv1: np.ndarray, tracer: Tracer, sky, method: str,
+                 size: int, offset: np.ndarray, seed: int = 1):
+        self.patches, self.tri_uv1, self.tracer, self.sky = patches, tri_uv1, tracer, sky
+        self.method, self.seed, self.offset = method, seed, offset
+        if method == "hemicube":
+            self.dirs, self.weights = multiplier_map(size)
+        elif method == "stratified":
+            self.dirs, self.weights = stratified_directions(size, np.random.default_rng(seed))
+        else:
+            raise ValueError(f"unknown gather method {method!r}")
+
+    @property
+    def rays_per_patch(self) -> int:
+        return len(self.dirs)
+
+    def _angles(self, rows: np.ndarray) -> np.ndarray:
+        """Rotation of the ray pattern per patch: random for stratified (seeded by patch id,
+        so a re-gather sees the same rays), none for the hemicube."""
+        if self.method == "hemicube":
+            return np.zeros(len(rows))
+        golden = 0.6180339887498949
+        return (2 * np.pi) * np.modf((rows.astype(np.float64) + self.seed) * golden)[0]
+
+    def gather(self, rows: np.ndarray, progress=None) -> GatherRows:
+        """Trace and resolve the rays of patches `rows` (R,) into their F rows and sky term."""
+        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_patch)
+        parts = [self._gather_chunk(rows[s:s + per_chunk], progress) for s in range(0, len(rows), per_chunk)]
+        if not parts:
+            return GatherRows(sp.csr_matrix((0, len(self.patches)), dtype=np.float32),
+                              np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
+        return GatherRows(sp.vstack([p.F for p in parts], format="csr"),
+                          np.concatenate([p.S for p in parts]),
+                          np.concatenate([p.back_fraction for p in parts]),
+                          sum(p.lost for p in parts))
+
+    def _gather_chunk(self, rows: np.ndarray, progress) -> GatherRows:
+        p, d = self.patches, self.rays_per_patch
+        origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
+                                           self.dirs, self._angles(rows))
+        hits = self.tracer.intersect(origins, dirs)
+        seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
+                                     p.width, p.height, p.index)
+        row_of_ray = np.repeat(np.arange(len(rows)), d)
+        weight = np.tile(self.weights, len(rows))
+        S = np.zeros((len(rows), 3), np.float32)
+        sky = seen == _kernels.SKY
+        if self.sky is not None and sky.any():
+            radiance = self.sky.radiance(dirs[sky]) * weight[sky, None]
+            for c in range(3):
+                S[:, c] = np.bincount(row_of_ray[sky], radiance[:, c], minlength=len(rows))
+        patch = seen >= 0
+        F = sp.csr_matrix((weight[patch], (row_of_ray[patch], seen[patch])),
+                          shape=(len(rows), len(p)), dtype=np.float32)
+        F.sum_duplicates()
+        back = np.bincount(row_of_ray[seen == _kernels.BACK_FACE], minlength=len(rows)) / d
+        if progress is not None:
+            progress(len(rows))
+        return GatherRows(F, S, back.astype(np.float32), int(np.count_nonzero(seen == _kernels.LOST)))
