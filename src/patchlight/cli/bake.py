@@ -1,0 +1,125 @@
+"""`patchlight bake SCENE -o DIR`: converged radiosity lightmap of a glTF or built-in scene."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..config import BakeSettings
+from ..errors import PatchlightError
+
+DEFAULTS = BakeSettings()
+
+
+def parse_rgb(text: str) -> tuple[float, float, float]:
+    """'R,G,B' -> three finite non-negative floats, or a one-line error."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(0 <= v < float("inf") for v in values):
+        raise argparse.ArgumentTypeError(f"expected R,G,B (three non-negative numbers), got {text!r}")
+    return values
+
+
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """Sky and light options shared by every command that lights a scene."""
+    sky = p.add_mutually_exclusive_group()
+    sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="uniform sky radiance")
+    sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
+                     help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
+    sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
+    p.add_argument("--falloff", choices=("inverse-square", "range"), default=DEFAULTS.falloff,
+                   help="point/spot falloff for lights that name none (default %(default)s)")
+    p.add_argument("--sun-angle", type=float, metavar="DEG", help="sun's angular diameter, soft shadows")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bake", help="bake a radiosity lightmap", description=__doc__)
+    p.add_argument("scene", help="a .glb/.gltf file or a built-in scene: room, cornell")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
+    add_bake_options(p)
+    p.set_defaults(func=run)
+
+
+def add_bake_options(p: argparse.ArgumentParser) -> None:
+    add_scene_options(p)
+    size = p.add_mutually_exclusive_group()
+    size.add_argument("--resolution", type=int, metavar="N", help="lightmap width = height in texels")
+    size.add_argument("--texels-per-unit", type=float, default=DEFAULTS.texels_per_unit, metavar="T")
+    p.add_argument("--gather", choices=("stratified", "hemicube"), default=DEFAULTS.gather)
+    p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
+    p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
+    p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
+    p.add_argument("--tolerance", type=float, default=DEFAULTS.tolerance)
+    p.add_argument("--accuracy", type=float, default=DEFAULTS.accuracy)
+    p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
+    p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
+    p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
+    p.add_argument("--max-memory", type=float, default=DEFAULTS.max_memory / 2**30, metavar="GiB")
+    p.add_argument("--seed", type=int, default=DEFAULTS.seed)
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print the bake summary as JSON on stdout")
+
+
+def settings_from_args(args) -> BakeSettings:
+    checks = [(args.passes >= 1, "--passes must be at least 1"),
+              (0 < args.accuracy < 1, "--accuracy must lie between 0 and 1"),
+              (args.tolerance > 0, "--tolerance must be positive"),
+              (args.rays >= 1, "--rays must be at least 1"),
+              (args.hemicube_size >= 2 and args.hemicube_size % 2 == 0, "--hemicube-size must be even and >= 2"),
+              (args.resolution is None or 4 <= args.resolution <= 16384, "--resolution must lie in 4..16384"),
+              (args.texels_per_unit > 0, "--texels-per-unit must be positive")]
+    for ok, message in checks:
+        if not ok:
+            raise PatchlightError(message)
+    exposure = args.exposure
+    if exposure != "auto":
+        try:
+            exposure = float(exposure)
+        except ValueError:
+            raise PatchlightError(f"--exposure must be a number or auto, got {exposure!r}") from None
+    return BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
+                        gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
+                        passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
+                        accuracy=args.accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
+                        exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
+                        save_passes=args.save_passes)
+
+
+def load_lit_scene(args):
+    """The scene named on the command line, with the sky the flags give."""
+    from ..scene import Sky, load_scene
+
+    scene = load_scene(args.scene)
+    if args.sky is not None:
+        scene.sky = Sky.uniform(args.sky)
+    elif args.sky_gradient is not None:
+        scene.sky = Sky.gradient(*args.sky_gradient)
+    elif args.sky_image is not None:
+        from ..imaging.io import read_environment
+
+        scene.sky = Sky.from_image(read_environment(args.sky_image))
+    return scene
+
+
+def run(args) -> int:
+    from ..bake import bake, write_bake
+
+    settings = settings_from_args(args)
+    scene = load_lit_scene(args)
+    result = bake(scene, settings, quiet=args.quiet or args.json)
+    summary = write_bake(result, args.output, settings)
+    if args.json:
+        json.dump(summary, sys.stdout, indent=2, default=float)
+        print()
+    elif not args.quiet:
+        s = summary
+        print(f"baked {s['patches']} patches ({s['computed_patches']} computed, "
+              f"{s['interpolated_patches']} interpolated) in {s['seconds_total']:.1f} s, "
+              f"{s['passes']} passes, {s['rays_per_second'] / 1e6:.2f} Mrays/s")
+        print(f"results in {args.output}/: lightmap.exr lightmap.png scene.glb bake.json adaptive.png")
+    for warning in summary.get("warnings", []):
+        print(f"patchlight: warning: {warning}", file=sys.stderr)
+    return 0
