@@ -1,0 +1,1 @@
+"""Images: colour curves, file I/O (EXR, PNG/JPEG, Radiance .hdr), encodings and filters."""

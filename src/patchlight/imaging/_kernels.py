@@ -1,0 +1,133 @@
+"""Numba kernels for Radiance RGBE scanlines (run-length coded and flat).
+
+Byte layout (Radiance's picture format): a scanline of width 8..32767 may start with the
+marker 2, 2, W >> 8, W & 255; then each of the four components (R, G, B, E) follows as runs:
+a count byte c > 128 repeats the next byte c - 128 times, a count 1..128 is followed by c
+literal bytes.  Any other scanline is flat: W pixels of 4 bytes, where the old-style pixel
+(1, 1, 1, n) repeats the previous pixel n << shift times (shift grows by 8 for each
+consecutive run pixel).
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+# Status codes returned by decode_scanlines instead of a positive byte offset.
+TRUNCATED = -1
+BAD_LENGTH = -2
+BAD_RUN = -3
+
+MIN_RUN = 4  # shorter repeats are cheaper as literals
+MAX_RUN = 127
+MAX_LITERAL = 128
+
+
+@numba.njit(cache=True)
+def decode_scanlines(data, pos, out):
+    """Decode H scanlines of (H, W, 4) uint8 RGBE `out` from uint8 `data` starting at byte `pos`.
+
+    Returns the byte offset after the last scanline, or a negative status code.
+    """
+    n = data.shape[0]
+    height, width = out.shape[0], out.shape[1]
+    for y in range(height):
+        if pos + 4 > n:
+            return TRUNCATED
+        is_rle = (8 <= width <= 0x7FFF and data[pos] == 2 and data[pos + 1] == 2
+                  and data[pos + 2] < 128)
+        if is_rle:
+            if (data[pos + 2] << 8 | data[pos + 3]) != width:
+                return BAD_LENGTH
+            pos += 4
+            for c in range(4):
+                x = 0
+                while x < width:
+                    if pos >= n:
+                        return TRUNCATED
+                    count = np.int64(data[pos])
+                    pos += 1
+                    if count > 128:
+                        count -= 128
+                        if x + count > width:
+                            return BAD_RUN
+                        if pos >= n:
+                            return TRUNCATED
+                        out[y, x:x + count, c] = data[pos]
+                        pos += 1
+                    else:
+                        if count == 0 or x + count > width:
+                            return BAD_RUN
+                        if pos + count > n:
+                            return TRUNCATED
+                        out[y, x:x + count, c] = data[pos:pos + count]
+                        pos += count
+                    x += count
+        else:
+            x = 0
+            shift = 0
+            while x < width:
+                if pos + 4 > n:
+                    return TRUNCATED
+                if data[pos] == 1 and data[pos + 1] == 1 and data[pos + 2] == 1:
+                    count = np.int64(data[pos + 3]) << shift
+                    if x == 0 or x + count > width:
+                        return BAD_RUN
+                    for k in range(count):
+                        out[y, x + k] = out[y, x - 1]
+                    x += count
+                    shift += 8
+                else:
+                    out[y, x] = data[pos:pos + 4]
+                    x += 1
+                    shift = 0
+                pos += 4
+    return pos
+
+
+@numba.njit(cache=True)
+def _encode_component(values, out, pos):
+    """Run-length code one component of one scanline into `out` at `pos`; returns the new pos."""
+    width = values.shape[0]
+    x = 0
+    while x < width:
+        # Find the next run of at least MIN_RUN equal bytes at or after x.
+        begin = x
+        run = 0
+        while begin < width:
+            run = 1
+            while begin + run < width and run < MAX_RUN and values[begin + run] == values[begin]:
+                run += 1
+            if run >= MIN_RUN:
+                break
+            begin += run
+        literal_end = begin if begin < width else width
+        while x < literal_end:
+            count = min(MAX_LITERAL, literal_end - x)
+            out[pos] = count
+            out[pos + 1:pos + 1 + count] = values[x:x + count]
+            pos += 1 + count
+            x += count
+        if begin < width:
+            out[pos] = 128 + run
+            out[pos + 1] = values[begin]
+            pos += 2
+            x = begin + run
+    return pos
+
+
+@numba.njit(cache=True)
+def encode_scanlines(rgbe):
+    """Run-length code (H, W, 4) uint8 RGBE (8 <= W <= 32767) into a new uint8 byte array."""
+    height, width = rgbe.shape[0], rgbe.shape[1]
+    worst = height * (4 + 4 * (width + (width + MAX_LITERAL - 1) // MAX_LITERAL))
+    out = np.empty(worst, np.uint8)
+    pos = 0
+    for y in range(height):
+        out[pos] = 2
+        out[pos + 1] = 2
+        out[pos + 2] = width >> 8
+        out[pos + 3] = width & 255
+        pos += 4
+        for c in range(4):
+            pos = _encode_component(rgbe[y, :, c], out, pos)
+    return out[:pos]

@@ -1,0 +1,277 @@
+"""Image files in and out: OpenEXR, PNG/JPEG (Pillow) and Radiance .hdr.
+
+Conventions: arrays are (H, W, C) with row 0 the top row of the picture, which is v = 0 in
+glTF's UV convention.  Float images are linear float32; 8-bit images are uint8.
+Every writer is atomic (a temporary file in the target directory, then `os.replace`), and
+every reader turns a missing, unreadable or corrupt file into `PatchlightError("<path>: <what>")`.
+
+| function            | reads / writes                         | array                          |
+|---------------------|----------------------------------------|--------------------------------|
+| write_exr, read_exr | OpenEXR, float32 R, G, B channels      | (H, W, 3) float32              |
+| write_png           | PNG through Pillow                     | (H, W), (H, W, 3|4) uint8      |
+| read_image          | PNG, JPEG (anything Pillow decodes)    | (H, W, C) float32 in [0, 1]    |
+| write_hdr, read_hdr | Radiance RGBE, RLE or flat scanlines   | (H, W, 3) float32              |
+| read_environment    | .exr or .hdr, by suffix                | (H, W, 3) float32, >= 0        |
+"""
+from __future__ import annotations
+
+import io
+import os
+import secrets
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import OpenEXR
+from PIL import Image
+
+from ..errors import PatchlightError
+from . import _kernels
+
+ORIENTATION_KEY = "patchlight.orientation"
+ORIENTATION = "row 0 is v=0 (glTF UV convention)"
+
+_MAX_PIXELS = 1 << 30  # refuse headers that ask for more than a gigapixel
+
+
+# --------------------------------------------------------------------------- files
+
+@contextmanager
+def atomic_path(path) -> Iterator[Path]:
+    """Yield a temporary path next to `path` (same suffix); on success move it onto `path`.
+
+    If the body raises anything (KeyboardInterrupt included), the temporary file is removed
+    and `path` is left as it was.  OSErrors from the body become PatchlightError.
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise PatchlightError(f"{path}: directory {path.parent} does not exist")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise PatchlightError(f"{path}: cannot write ({exc.strerror or exc})") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_bytes(path, data: bytes) -> None:
+    """Write `data` to `path` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def require_file(path) -> Path:
+    """`path` as a Path, or PatchlightError when it is missing, a directory or unreadable."""
+    path = Path(path)
+    if not path.exists():
+        raise PatchlightError(f"{path}: file not found")
+    if path.is_dir():
+        raise PatchlightError(f"{path}: is a directory, not a file")
+    if not os.access(path, os.R_OK):
+        raise PatchlightError(f"{path}: cannot read (permission denied)")
+    return path
+
+
+def read_bytes(path) -> bytes:
+    """The whole file, or PatchlightError when it is missing or unreadable."""
+    path = require_file(path)
+    try:
+        return path.read_bytes()
+    except OSError as exc:
+        raise PatchlightError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+
+
+# --------------------------------------------------------------------------- OpenEXR
+
+def write_exr(path, rgb: np.ndarray, metadata: dict[str, str] | None = None) -> None:
+    """Write (H, W, 3) linear RGB as a float32, ZIP-compressed EXR; row 0 is the top row.
+
+    The header records the orientation under `patchlight.orientation`; `metadata` adds
+    more string attributes.
+    """
+    pixels = np.ascontiguousarray(rgb, np.float32)
+    if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
+        raise ValueError(f"write_exr wants an (H, W, 3) image, got shape {pixels.shape}")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+              ORIENTATION_KEY: ORIENTATION}
+    header.update({str(k): str(v) for k, v in (metadata or {}).items()})
+    with atomic_path(path) as tmp:
+        try:
+            OpenEXR.File(header, {"RGB": pixels}).write(str(tmp))
+        except RuntimeError as exc:
+            raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
+
+
+def read_exr(path) -> np.ndarray:
+    """(H, W, 3) float32 from an EXR's R, G, B channels (a Y-only image is repeated in RGB)."""
+    path = require_file(path)
+    try:
+        channels = OpenEXR.File(str(path), separate_channels=True).channels()
+    except RuntimeError as exc:
+        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+    if {"R", "G", "B"} <= channels.keys():
+        names = ["R", "G", "B"]
+    elif "Y" in channels:
+        names = ["Y"] * 3
+    else:
+        raise PatchlightError(f"{path}: EXR has no R, G, B or Y channels (has {sorted(channels)})")
+    return np.stack([channels[n].pixels.astype(np.float32) for n in names], axis=-1)
+
+
+# --------------------------------------------------------------------------- PNG / JPEG
+
+def encode_png(image: np.ndarray) -> bytes:
+    """PNG bytes of a uint8 image: (H, W) grey, (H, W, 3) RGB or (H, W, 4) RGBA."""
+    pixels = np.ascontiguousarray(image)
+    if pixels.dtype != np.uint8:
+        raise ValueError(f"encode_png wants uint8 pixels, got {pixels.dtype}")
+    if pixels.ndim == 3 and pixels.shape[2] == 1:
+        pixels = pixels[..., 0]
+    if not (pixels.ndim == 2 or (pixels.ndim == 3 and pixels.shape[2] in (3, 4))):
+        raise ValueError(f"encode_png wants (H, W), (H, W, 3) or (H, W, 4), got {pixels.shape}")
+    buffer = io.BytesIO()
+    Image.fromarray(pixels).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def write_png(path, image: np.ndarray) -> None:
+    """Write a uint8 grey, RGB or RGBA image as PNG, atomically."""
+    write_bytes(path, encode_png(image))
+
+
+def decode_image(data: bytes, where: str) -> np.ndarray:
+    """Decode PNG/JPEG bytes to float32 (H, W, C) in [0, 1], C = 1, 2, 3 or 4 (values as stored,
+    no colour conversion).  `where` names the source in error messages."""
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            img.load()
+            return _pixels(img)
+    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
+        raise PatchlightError(f"{where}: not a readable PNG/JPEG image ({exc})") from exc
+
+
+def _pixels(img: Image.Image) -> np.ndarray:
+    if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+        return (np.asarray(img, np.float64) / 65535.0).astype(np.float32)[..., None]
+    if img.mode == "F":
+        return np.asarray(img, np.float32)[..., None]
+    if img.mode == "P":
+        img = img.convert("RGBA" if "transparency" in img.info else "RGB")
+    elif img.mode not in ("L", "LA", "RGB", "RGBA"):
+        img = img.convert({"1": "L", "La": "LA", "PA": "RGBA"}.get(img.mode, "RGBA" if "A" in img.mode else "RGB"))
+    arr = np.asarray(img, np.float32) / 255.0
+    return arr[..., None] if arr.ndim == 2 else arr
+
+
+def read_image(path) -> np.ndarray:
+    """PNG or JPEG file -> float32 (H, W, C) in [0, 1] (stored values, no sRGB decoding)."""
+    return decode_image(read_bytes(path), str(path))
+
+
+# --------------------------------------------------------------------------- Radiance .hdr
+
+def _float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float -> (H, W, 4) uint8 RGBE, mantissas floored as Radiance does."""
+    rgb = np.maximum(np.asarray(rgb, np.float64), 0.0)
+    peak = rgb.max(axis=-1)
+    mantissa, exponent = np.frexp(peak)
+    scale = np.divide(mantissa * 256.0, peak, out=np.zeros_like(peak), where=peak > 1e-32)
+    rgbe = np.empty(rgb.shape[:2] + (4,), np.uint8)
+    rgbe[..., :3] = np.clip(np.floor(rgb * scale[..., None]), 0, 255)
+    rgbe[..., 3] = np.where(peak > 1e-32, np.clip(exponent + 128, 0, 255), 0)
+    return rgbe
+
+
+def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
+    """(H, W, 4) uint8 RGBE -> (H, W, 3) float32: (m + 0.5) * 2^(e - 136), 0 where e = 0."""
+    exponent = rgbe[..., 3].astype(np.int32)
+    scale = np.where(exponent > 0, np.ldexp(1.0, exponent - 136), 0.0)
+    return ((rgbe[..., :3] + 0.5) * scale[..., None]).astype(np.float32)
+
+
+def write_hdr(path, rgb: np.ndarray, rle: bool = True) -> None:
+    """Write (H, W, 3) linear RGB as Radiance RGBE ("-Y H +X W"), atomically.
+
+    Scanlines are run-length coded when `rle` and 8 <= W <= 32767, flat otherwise.
+    Negative values are stored as 0; the relative error is below 1/256 of a pixel's peak channel.
+    """
+    pixels = np.asarray(rgb)
+    if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
+        raise ValueError(f"write_hdr wants an (H, W, 3) image, got shape {pixels.shape}")
+    if not np.all(np.isfinite(pixels)):
+        raise ValueError("write_hdr cannot store NaN or infinite values")
+    height, width = pixels.shape[:2]
+    rgbe = _float_to_rgbe(pixels)
+    header = (f"#?RADIANCE\n# written by patchlight\nFORMAT=32-bit_rle_rgbe\n\n"
+              f"-Y {height} +X {width}\n").encode("ascii")
+    body = _kernels.encode_scanlines(rgbe).tobytes() if rle and 8 <= width <= 0x7FFF else rgbe.tobytes()
+    write_bytes(path, header + body)
+
+
+def _hdr_header(data: bytes, path: Path) -> tuple[int, int, bool, int]:
+    """Parse the text header: (height, width, flip_rows, offset of the first scanline)."""
+    if not data.startswith(b"#?"):
+        raise PatchlightError(f"{path}: not a Radiance .hdr file (no '#?' signature)")
+    pos = 0
+    while True:
+        end = data.find(b"\n", pos)
+        if end < 0:
+            raise PatchlightError(f"{path}: truncated .hdr header")
+        line = data[pos:end].strip()
+        pos = end + 1
+        if not line:
+            break
+        if line.startswith(b"FORMAT=") and line[7:] != b"32-bit_rle_rgbe":
+            raise PatchlightError(f"{path}: unsupported .hdr format {line[7:].decode('latin-1')!r}"
+                                  " (only 32-bit_rle_rgbe)")
+    end = data.find(b"\n", pos)
+    tokens = data[pos:end].split() if end >= 0 else []
+    if len(tokens) != 4 or tokens[2] != b"+X" or tokens[0] not in (b"-Y", b"+Y") \
+            or not tokens[1].isdigit() or not tokens[3].isdigit():
+        shown = data[pos:end if end >= 0 else pos + 40].decode("latin-1")
+        raise PatchlightError(f"{path}: unsupported .hdr resolution line {shown!r} (want '-Y H +X W')")
+    height, width = int(tokens[1]), int(tokens[3])
+    if height == 0 or width == 0 or height * width > _MAX_PIXELS:
+        raise PatchlightError(f"{path}: bad .hdr size {width} x {height}")
+    return height, width, tokens[0] == b"+Y", end + 1
+
+
+def read_hdr(path) -> np.ndarray:
+    """Radiance .hdr (RGBE; RLE or flat scanlines; "-Y H +X W" or "+Y H +X W") -> (H, W, 3)
+    float32 with row 0 the top.  The EXPOSURE header is ignored, as most readers do."""
+    path = Path(path)
+    data = read_bytes(path)
+    height, width, flip, offset = _hdr_header(data, path)
+    rgbe = np.zeros((height, width, 4), np.uint8)
+    status = _kernels.decode_scanlines(np.frombuffer(data, np.uint8), offset, rgbe)
+    if status < 0:
+        what = {_kernels.TRUNCATED: "truncated pixel data", _kernels.BAD_LENGTH: "scanline length mismatch",
+                _kernels.BAD_RUN: "corrupt run-length data"}[status]
+        raise PatchlightError(f"{path}: {what}")
+    rgb = _rgbe_to_float(rgbe)
+    return rgb[::-1].copy() if flip else rgb
+
+
+# --------------------------------------------------------------------------- environments
+
+def read_environment(path) -> np.ndarray:
+    """An equirectangular environment (.exr or .hdr by suffix) -> (H, W, 3) float32 radiance.
+
+    Refuses NaN or infinite pixels; clamps negative ones (filtering ringing) to 0.
+    """
+    path = require_file(path)
+    suffix = path.suffix.lower()
+    if suffix == ".exr":
+        rgb = read_exr(path)
+    elif suffix in (".hdr", ".pic"):
+        rgb = read_hdr(path)
+    else:
+        raise PatchlightError(f"{path}: environment maps must be .exr or .hdr, not '{suffix or path.name}'")
+    if not np.all(np.isfinite(rgb)):
+        raise PatchlightError(f"{path}: environment map contains NaN or infinite pixels")
+    return np.maximum(rgb, 0.0)
