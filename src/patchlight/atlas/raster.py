@@ -1,0 +1,104 @@
+"""Texel rasterisation: every lightmap texel a triangle touches becomes a patch.
+
+Conservative: a texel belongs to the lightmap when any triangle's interior overlaps the texel
+square, so thin and tiny triangles still get texels.  Among the triangles touching a texel,
+the owner is the first (lowest index) covering the texel centre, else the one overlapping the
+square most.  Triangles of zero world area are skipped: nothing can see or light them.
+
+Per patch (see `Patches`): position at the texel centre's barycentrics clamped into the owner
+triangle; interpolated vertex normal (the face normal when that faces away); chart = connected
+component of triangles sharing uv1 edges (`uv_charts`); size = world length of a texel edge on
+the owner, sqrt(world area / texel area); rho = base colour factor x COLOR_0 (at the clamped
+centre) x base-colour texture averaged over SAMPLES x SAMPLES points of the texel footprint
+mapped through the owner's affine uv1 -> uv0 map (bilinear, repeat wrap, v = 0 top row);
+emission = emissive factor x emissive texture averaged the same way.  RGB only.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import PatchlightError
+from ..scene.model import Scene, face_normals
+from . import _kernels
+from .patches import Patches
+from .uvs import uv_charts
+
+SAMPLES = 4  # footprint grid per texel axis for texture averages
+
+
+def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarray]:
+    """Patches of a width x height lightmap over scene.uv1, rows ordered by texel (y, x).
+
+    Returns (patches, chart_per_triangle (T,) i32)."""
+    where = scene.source or scene.name
+    if scene.uv1 is None:
+        raise PatchlightError(f"{where}: no lightmap UVs to rasterise (run ensure_lightmap_uvs first)")
+    if not (int(width) == width > 0 and int(height) == height > 0):
+        raise PatchlightError(f"{where}: lightmap size {width}x{height} is not positive whole texels")
+    if scene.n_triangles and not (0 <= scene.material_ids.min() and scene.material_ids.max() < len(scene.materials)):
+        raise PatchlightError(f"{where}: a triangle's material id points outside the material list")
+    width, height = int(width), int(height)
+    tex = scene.uv1[scene.indices].astype(np.float64) * np.array([width, height], np.float64)
+    normal, area = face_normals(scene.positions, scene.indices)
+    owner, _ = _kernels.rasterize_owners(tex, area > 0, width, height)
+    texel_y, texel_x = np.nonzero(owner >= 0)
+    triangle = owner[texel_y, texel_x]
+    chart_per_triangle, _ = uv_charts(scene.uv1, scene.indices)
+    position, patch_normal, rho, emission = _attributes(scene, tex, texel_y, texel_x, triangle, normal)
+    index = np.full((height, width), -1, np.int32)
+    index[texel_y, texel_x] = np.arange(len(triangle), dtype=np.int32)
+    size = _texel_size(tex, area)[triangle]
+    patches = Patches(width=width, height=height, texel_y=texel_y.astype(np.int32), texel_x=texel_x.astype(np.int32),
+                      position=position, normal=patch_normal, triangle=triangle.astype(np.int32), rho=rho,
+                      emission=emission, chart=chart_per_triangle[triangle], size=size, index=index)
+    return patches, chart_per_triangle
+
+
+def _attributes(scene, tex, texel_y, texel_x, triangle, face_normal):
+    materials = scene.materials
+    base_factor = np.array([np.asarray(m.base_color, np.float64)[:3] for m in materials]).reshape(-1, 3)
+    emissive_factor = np.array([np.asarray(m.emissive, np.float64)[:3] for m in materials]).reshape(-1, 3)
+    textures = []
+    base_id = np.array([_register(textures, m.base_color_texture) for m in materials], np.int64)
+    emissive_id = np.array([_register(textures, m.emissive_texture) for m in materials], np.int64)
+    data, offset, tex_w, tex_h = _stack_textures(textures)
+    colors = np.zeros((0, 4), np.float32) if scene.colors is None else np.asarray(scene.colors, np.float32)
+    return _kernels.texel_attributes(
+        texel_y.astype(np.int64), texel_x.astype(np.int64), triangle.astype(np.int64), tex,
+        np.asarray(scene.positions, np.float64), np.asarray(scene.normals, np.float64),
+        np.asarray(scene.uv0, np.float64), colors, np.asarray(scene.indices, np.int64),
+        face_normal.astype(np.float64), np.asarray(scene.material_ids, np.int64), base_factor, emissive_factor,
+        base_id, emissive_id, data, offset, tex_w, tex_h, SAMPLES)
+
+
+def _register(textures, image):
+    """Index of image (H, W, >=3) in the textures list (appended), or -1 for None."""
+    if image is None:
+        return -1
+    for i, known in enumerate(textures):
+        if known is image:
+            return i
+    textures.append(image)
+    return len(textures) - 1
+
+
+def _stack_textures(textures):
+    """RGB rows of every texture stacked: data (K, 3) f32, offset, width, height (n,) i64."""
+    if not textures:
+        return np.zeros((1, 3), np.float32), *(np.zeros(1, np.int64) for _ in range(3))
+    rgb = [np.ascontiguousarray(np.asarray(t, np.float32)[..., :3]).reshape(-1, 3) for t in textures]
+    sizes = np.array([len(r) for r in rgb], np.int64)
+    offset = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    tex_w = np.array([t.shape[1] for t in textures], np.int64)
+    tex_h = np.array([t.shape[0] for t in textures], np.int64)
+    return np.concatenate(rgb), offset, tex_w, tex_h
+
+
+def _texel_size(tex, world_area):
+    """(T,) f32 world length of one texel edge on each triangle: sqrt(world / texel area).
+    A triangle of no UV area counts as filling one texel: sqrt(world area)."""
+    e1, e2 = tex[:, 1] - tex[:, 0], tex[:, 2] - tex[:, 0]
+    texel_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    world = world_area.astype(np.float64)
+    size = np.sqrt(np.divide(world, texel_area, out=world.copy(), where=texel_area > 1e-12))
+    return size.astype(np.float32)

@@ -1,0 +1,380 @@
+"""Lightmap UVs (TEXCOORD_1): keep the scene's own, else make them with xatlas, else pack planar charts.
+
+ensure_lightmap_uvs parameters:
+
+| name            | type         | meaning                                                      | default |
+|-----------------|--------------|--------------------------------------------------------------|---------|
+| texels_per_unit | float > 0    | lightmap texels per metre of surface                          | 16      |
+| resolution      | int 16..8192 | square lightmap size; overrides texels_per_unit               | None    |
+| padding         | int >= 0     | empty texels between charts (and around the atlas edge)       | 2       |
+
+xatlas runs in a child process (it can crash on some closed meshes); when it dies, times out
+or is missing, a simple in-process packer takes over and `info["warnings"]` says so once.
+All triangles of the scene go to xatlas as ONE mesh: a lightmap does not care about
+materials, and one mesh lets xatlas share the page between every chart.
+UV convention: uv1 in [0, 1], texel (row y, column x) covers v in [y/H, (y+1)/H]: v = 0 is
+the image's top row, as glTF has it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import PatchlightError
+from ..scene.model import Scene, face_normals
+from . import _kernels
+
+DEFAULT_TEXELS_PER_UNIT = 16.0  # texels per metre; a 4 m wall gets 64 texels
+MIN_SIZE, MAX_SIZE = 16, 8192   # lightmap edge in texels
+MAX_TEXELS = 8192 * 8192
+PLANAR_COS = 0.99999            # fallback charts: normals within ~0.26 degrees of the seed's
+CELL_MARGIN = 0.01              # texels kept free inside a chart's cell, so float32 uv1 rounding
+                                # (5e-4 texel at 8192) never spills a chart into the next texel
+CHILD_TIMEOUT_BASE_S = 60.0     # xatlas child timeout = base + per-triangle x T
+CHILD_TIMEOUT_PER_TRIANGLE_S = 2e-3
+FORM_FACTOR_ENTRIES = 256       # typical stored form-factor entries per patch (estimate only)
+BYTES_PER_TEXEL = 200           # patch arrays, light vectors, images and tracer share per texel
+
+
+@dataclass
+class _Packing:
+    """Generated lightmap UVs: output vertex i copies source vertex vmapping[i]."""
+
+    vmapping: np.ndarray   # (V',) int64
+    indices: np.ndarray    # (T, 3) int32
+    uv_texels: np.ndarray  # (V', 2) f64, texel units
+    width: int
+    height: int
+    texels_per_unit: float
+    charts: int
+
+
+class _XatlasFailed(Exception):
+    """xatlas could not run or died; the message is the first half of the warning line."""
+
+
+def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, resolution: int | None = None,
+                        padding: int = 2) -> tuple[Scene, int, int, dict]:
+    """Give the scene lightmap UVs and choose the lightmap size.
+
+    Returns (scene, width, height, info).  A scene with uv1 comes back unchanged; otherwise
+    a new Scene whose vertices are split along chart seams (every per-vertex array remapped)
+    with uv1 set.  info: uv_source ("TEXCOORD_1" | "xatlas" | "fallback"), charts, width,
+    height, texels_per_unit (achieved mean texels per metre), warnings (list of str).
+    """
+    _check_options(texels_per_unit, resolution, padding)
+    if scene.uv1 is not None:
+        return _keep_texcoord1(scene, texels_per_unit, resolution)
+    density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
+    if resolution is None:
+        _check_density(scene, density)
+    warnings = []
+    try:
+        packing = _xatlas_in_child(scene, density, resolution, padding)
+        source = "xatlas"
+    except _XatlasFailed as failure:
+        warnings.append(f"{failure}; used the simple planar-chart packer")
+        packing = pack_planar_charts(scene, density, resolution, padding)
+        source = "fallback"
+    width, height = _final_size(packing, resolution)
+    _check_size(width, height, scene)
+    uv1 = (packing.uv_texels / np.array([width, height], np.float64)).astype(np.float32)
+    out = _split_vertices(scene, packing.vmapping, packing.indices, uv1)
+    info = {"uv_source": source, "charts": packing.charts, "width": width, "height": height,
+            "texels_per_unit": packing.texels_per_unit, "warnings": warnings}
+    return out, width, height, info
+
+
+def estimate_bake_bytes(width: int, height: int, form_factor_entries: int = FORM_FACTOR_ENTRIES) -> int:
+    """Rough peak memory of baking a W x H lightmap, in bytes, assuming every texel is a patch.
+
+    Per texel: BYTES_PER_TEXEL for patch attributes, light vectors and images, plus
+    form_factor_entries sparse form-factor entries of 8 bytes (f32 value + i32 column)."""
+    return int(width) * int(height) * (BYTES_PER_TEXEL + 8 * int(form_factor_entries))
+
+
+def check_bake_memory(width: int, height: int, available_bytes: int | None = None,
+                      form_factor_entries: int = FORM_FACTOR_ENTRIES) -> None:
+    """Refuse (PatchlightError) a lightmap whose estimated bake memory exceeds what is available."""
+    needed = estimate_bake_bytes(width, height, form_factor_entries)
+    available = _available_memory() if available_bytes is None else int(available_bytes)
+    if available > 0 and needed > available:
+        side = int(math.sqrt(available / needed) * min(width, height)) // 4 * 4
+        raise PatchlightError(
+            f"lightmap {width}x{height}: the bake needs about {needed / 2**30:.1f} GiB but only "
+            f"{available / 2**30:.1f} GiB is available; lower --resolution (about {max(side, MIN_SIZE)}) "
+            f"or --texels-per-unit")
+
+
+def uv_charts(uv1: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, int]:
+    """Chart id (T,) i32 of each triangle and the chart count: connected components of
+    triangles sharing a UV edge (both end points with bit-identical uv1)."""
+    corner_uv = np.ascontiguousarray(uv1[indices].reshape(-1, 2), np.float32) + np.float32(0.0)  # -0 -> +0
+    keys = np.unique(corner_uv.view(np.int64).ravel(), return_inverse=True)[1].reshape(-1, 3)
+    return _shared_edge_components(keys)
+
+
+# ----------------------------------------------------------------------------------------
+# TEXCOORD_1 kept
+# ----------------------------------------------------------------------------------------
+
+def _keep_texcoord1(scene, texels_per_unit, resolution):
+    uv1 = scene.uv1
+    where = scene.source or scene.name
+    if uv1.ndim != 2 or uv1.shape != (len(scene.positions), 2):
+        raise PatchlightError(f"{where}: TEXCOORD_1 has shape {uv1.shape}, expected ({len(scene.positions)}, 2)")
+    if not np.all(np.isfinite(uv1)):
+        raise PatchlightError(f"{where}: TEXCOORD_1 holds NaN or infinite values")
+    world_area = float(face_normals(scene.positions, scene.indices)[1].astype(np.float64).sum())
+    uv_area = float(_uv_areas(uv1, scene.indices).sum())
+    if uv_area <= 0.0 or world_area <= 0.0:
+        raise PatchlightError(f"{where}: TEXCOORD_1 covers no area; remove it to let patchlight make lightmap UVs")
+    if resolution is not None:
+        size = int(resolution)
+    else:
+        density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
+        # W^2 * uv_area texels must hold world_area * density^2
+        size = _round_up4(density * math.sqrt(world_area / uv_area))
+        size = min(max(size, MIN_SIZE), MAX_SIZE)
+    _, charts = uv_charts(uv1, scene.indices)
+    info = {"uv_source": "TEXCOORD_1", "charts": charts, "width": size, "height": size,
+            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": []}
+    return scene, size, size, info
+
+
+def _uv_areas(uv, indices):
+    """(T,) f64 area of each triangle in normalised UV space."""
+    tri = uv[indices].astype(np.float64)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+# ----------------------------------------------------------------------------------------
+# xatlas, in a child process
+# ----------------------------------------------------------------------------------------
+
+def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
+    if importlib.util.find_spec("xatlas") is None:
+        raise _XatlasFailed("xatlas is not installed")
+    timeout = CHILD_TIMEOUT_BASE_S + CHILD_TIMEOUT_PER_TRIANGLE_S * scene.n_triangles
+    child = Path(__file__).with_name("_xatlas_child.py")
+    with tempfile.TemporaryDirectory(prefix="patchlight-xatlas-") as folder:
+        source, target = os.path.join(folder, "in.npz"), os.path.join(folder, "out.npz")
+        np.savez(source, positions=np.asarray(scene.positions, np.float32),
+                 indices=np.asarray(scene.indices, np.uint32), padding=int(padding),
+                 texels_per_unit=float(texels_per_unit), resolution=int(resolution or 0))
+        try:
+            run = subprocess.run([sys.executable, str(child), source, target], capture_output=True,
+                                 text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise _XatlasFailed(f"xatlas took longer than {timeout:.0f} s") from None
+        if run.returncode < 0:
+            raise _XatlasFailed(f"xatlas crashed ({_signal_name(-run.returncode)})")
+        if run.returncode != 0 or not os.path.exists(target):
+            last = (run.stderr.strip().splitlines() or ["no message"])[-1]
+            raise _XatlasFailed(f"xatlas failed (exit status {run.returncode}: {last})")
+        with np.load(target) as data:
+            return _Packing(vmapping=data["vmapping"].astype(np.int64), indices=data["indices"].astype(np.int32),
+                            uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
+                            height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]),
+                            charts=int(data["charts"]))
+
+
+def _signal_name(number):
+    try:
+        return f"signal {number}, {signal.Signals(number).name}"
+    except ValueError:
+        return f"signal {number}"
+
+
+# ----------------------------------------------------------------------------------------
+# Fallback: planar charts, projected onto their plane and shelf-packed
+# ----------------------------------------------------------------------------------------
+
+def pack_planar_charts(scene: Scene, texels_per_unit: float, resolution: int | None, padding: int) -> _Packing:
+    """The in-process packer: charts are edge-connected triangles within PLANAR_COS of their
+    seed's normal, projected onto the seed's plane (bounding rectangle minimised over a few
+    in-plane axes), scaled to texels_per_unit and shelf-packed tallest first with `padding`
+    empty texels between charts and around the border.  With a resolution, the density is
+    searched so the charts fill one resolution x resolution page."""
+    positions = np.asarray(scene.positions, np.float64)
+    normal, area = face_normals(scene.positions, scene.indices)
+    if float(area.astype(np.float64).sum()) <= 0.0:
+        raise PatchlightError(f"{scene.source or scene.name}: no triangle has any area to lightmap")
+    chart, charts = _planar_charts(positions, scene.indices, normal.astype(np.float64))
+    order = np.argsort(chart, kind="stable")
+    start = np.searchsorted(chart[order], np.arange(charts + 1))
+    chart_normal = normal[order[start[:-1]]].astype(np.float64)
+    local, extent = _kernels.project_charts(positions[scene.indices], chart_normal, order, start, 12)
+    if resolution is None:
+        placed = _shelf_pack(extent, texels_per_unit, padding, None)
+    else:
+        texels_per_unit, placed = _fit_density(extent, float(area.sum()), int(resolution), padding, scene)
+    x_at, y_at, cells_w, cells_h, width, height = placed
+    # centre each chart in its whole-texel cell
+    offset = np.stack([x_at + (cells_w - extent[:, 0] * texels_per_unit) / 2,
+                       y_at + (cells_h - extent[:, 1] * texels_per_unit) / 2], axis=1)
+    corner_uv = local * texels_per_unit + offset[chart][:, None, :]
+    vertex_count = len(scene.positions)
+    keys = chart.astype(np.int64)[:, None] * vertex_count + scene.indices
+    unique, first, inverse = np.unique(keys.ravel(), return_index=True, return_inverse=True)
+    return _Packing(vmapping=unique % vertex_count, indices=inverse.reshape(-1, 3).astype(np.int32),
+                    uv_texels=corner_uv.reshape(-1, 2)[first], width=width, height=height,
+                    texels_per_unit=float(texels_per_unit), charts=int(charts))
+
+
+def _planar_charts(positions, indices, normal):
+    """Chart id (T,) and count: region growing over triangles sharing an edge (by position)."""
+    welded = np.unique(positions, axis=0, return_inverse=True)[1].ravel()[indices]
+    edges = np.sort(np.stack([welded[:, [0, 1]], welded[:, [1, 2]], welded[:, [2, 0]]], axis=1), axis=2)
+    code = edges[..., 0].astype(np.int64) * (welded.max() + 1) + edges[..., 1]
+    triangle = np.repeat(np.arange(len(indices)), 3)
+    order = np.argsort(code.ravel(), kind="stable")
+    code, triangle = code.ravel()[order], triangle[order]
+    first, count = np.unique(code, return_index=True, return_counts=True)[1:]
+    pairs = [np.stack([triangle[first[count == 2]], triangle[first[count == 2] + 1]], axis=1)]
+    for start, size in zip(first[count > 2], count[count > 2]):  # non-manifold edges: rare
+        group = triangle[start:start + size]
+        a, b = np.triu_indices(size, 1)
+        pairs.append(np.stack([group[a], group[b]], axis=1))
+    pairs = np.concatenate(pairs)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    both = np.concatenate([pairs, pairs[:, ::-1]])
+    both = both[np.lexsort((both[:, 1], both[:, 0]))]
+    neighbour_start = np.searchsorted(both[:, 0], np.arange(len(indices) + 1))
+    chart, charts = _kernels.grow_planar_charts(normal, neighbour_start, both[:, 1].copy(), PLANAR_COS)
+    return chart, int(charts)
+
+
+def _shelf_pack(extent, texels_per_unit, padding, shelf_width):
+    """Whole-texel cells of each chart placed on shelves; shelf_width None = about square."""
+    cells = np.maximum(1, np.ceil(extent * texels_per_unit + 2 * CELL_MARGIN)).astype(np.int64)
+    cells_w, cells_h = cells[:, 0], cells[:, 1]
+    if shelf_width is None:
+        shelf_width = max(int(cells_w.max()) + 2 * padding,
+                          int(math.ceil(math.sqrt(float(((cells_w + padding) * (cells_h + padding)).sum())))))
+    order = np.argsort(-cells_h, kind="stable")
+    x_at, y_at, width, height = _kernels.shelf_pack(cells_w, cells_h, order, padding, shelf_width)
+    return x_at, y_at, cells_w, cells_h, int(width), int(height)
+
+
+def _fit_density(extent, world_area, resolution, padding, scene):
+    """Largest texel density (searched) whose shelf packing fits resolution x resolution."""
+    def fits(density):
+        placed = _shelf_pack(extent, density, padding, resolution)
+        return placed[4] <= resolution and placed[5] <= resolution, placed
+
+    density = resolution * math.sqrt(0.5 / world_area)
+    ok, placed = fits(density)
+    lo, hi = (density, None) if ok else (None, density)
+    for _ in range(60):  # bracket: grow or shrink by 2x
+        if (lo is None) == (hi is None):
+            break
+        density = lo * 2 if hi is None else hi / 2
+        ok, attempt = fits(density)
+        if ok:
+            lo, placed = density, attempt
+        else:
+            hi = density
+    if lo is None or hi is None:
+        raise PatchlightError(f"{scene.source or scene.name}: {len(extent)} charts with {padding} texels of "
+                              f"padding do not fit in {resolution}x{resolution}; raise --resolution")
+    for _ in range(12):  # refine between lo and 2 lo
+        middle = 0.5 * (lo + hi)
+        ok, attempt = fits(middle)
+        if ok:
+            lo, placed = middle, attempt
+        else:
+            hi = middle
+    return lo, placed
+
+
+# ----------------------------------------------------------------------------------------
+# Shared helpers
+# ----------------------------------------------------------------------------------------
+
+def _final_size(packing, resolution):
+    if resolution is not None:
+        return int(resolution), int(resolution)
+    return (max(_round_up4(packing.width), MIN_SIZE), max(_round_up4(packing.height), MIN_SIZE))
+
+
+def _split_vertices(scene, vmapping, indices, uv1):
+    """A new Scene whose vertex i copies scene vertex vmapping[i], with new indices and uv1."""
+    def pick(array):
+        return None if array is None else np.ascontiguousarray(array[vmapping])
+
+    return dataclasses.replace(scene, positions=pick(scene.positions), normals=pick(scene.normals),
+                               uv0=pick(scene.uv0), tangents=pick(scene.tangents), colors=pick(scene.colors),
+                               indices=np.ascontiguousarray(indices, np.int32), uv1=uv1)
+
+
+def _shared_edge_components(keys):
+    """Connected components (T,) i32 and count of triangles whose corners carry vertex keys
+    (T, 3), linked when they share an edge (an unordered pair of keys)."""
+    t_count = len(keys)
+    edges = np.sort(np.stack([keys[:, [0, 1]], keys[:, [1, 2]], keys[:, [2, 0]]], axis=1), axis=2)
+    code = edges[..., 0].astype(np.int64) * (int(keys.max()) + 1) + edges[..., 1]
+    edge_id = np.unique(code.ravel(), return_inverse=True)[1].ravel()
+    rows = np.repeat(np.arange(t_count), 3)
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, t_count + edge_id)),
+                       shape=(t_count + edge_id.max() + 1,) * 2)
+    labels = connected_components(graph, directed=False)[1][:t_count]
+    unique, chart = np.unique(labels, return_inverse=True)
+    return chart.astype(np.int32), len(unique)
+
+
+def _check_options(texels_per_unit, resolution, padding):
+    if texels_per_unit is not None and not (math.isfinite(texels_per_unit) and texels_per_unit > 0):
+        raise PatchlightError(f"texels per unit: {texels_per_unit} is not a positive number")
+    if resolution is not None and not (MIN_SIZE <= int(resolution) <= MAX_SIZE and int(resolution) == resolution):
+        raise PatchlightError(f"resolution: {resolution} is not a whole number of texels in {MIN_SIZE}..{MAX_SIZE}")
+    if not (int(padding) == padding and 0 <= padding <= 64):
+        raise PatchlightError(f"padding: {padding} is not a whole number of texels in 0..64")
+
+
+def _check_size(width, height, scene):
+    if width * height > MAX_TEXELS or max(width, height) > 2 * MAX_SIZE:
+        raise PatchlightError(f"{scene.source or scene.name}: the lightmap would be {width}x{height} texels "
+                              f"(limit {MAX_SIZE}x{MAX_SIZE}); lower --texels-per-unit or set --resolution")
+
+
+def _check_density(scene, texels_per_unit):
+    """Refuse before packing when the surface alone needs more than MAX_TEXELS texels."""
+    world_area = float(face_normals(scene.positions, scene.indices)[1].astype(np.float64).sum())
+    needed = world_area * texels_per_unit ** 2
+    if needed > MAX_TEXELS:
+        raise PatchlightError(f"{scene.source or scene.name}: {world_area:.4g} m^2 at {texels_per_unit:g} texels per "
+                              f"metre needs {needed:.3g} texels (limit {MAX_TEXELS}); lower --texels-per-unit "
+                              f"or set --resolution")
+
+
+def _round_up4(value):
+    return int(math.ceil(value / 4.0)) * 4
+
+
+def _available_memory():
+    """Bytes of memory available now (Linux MemAvailable, else free pages; 0 when unknown)."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 0
