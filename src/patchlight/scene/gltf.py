@@ -1,0 +1,899 @@
+"""glTF 2.0 in (`load_gltf`) and the baked, lightmapped .glb out (`save_baked_glb`).
+
+Import
+------
+`.glb` and `.gltf` (external `.bin` and image files, `data:` URIs) are flattened into one
+world-space `Scene`: the default scene's node tree (else scene 0, else every root node) with
+TRS or matrix transforms composed; positions by the world matrix, normals by its inverse
+transpose, winding flipped where the determinant is negative.  Primitive modes 4, 5, 6
+(triangles, strips, fans), indexed or not; points and lines are skipped and counted.
+Accessors may be strided, normalized integers (KHR_mesh_quantization) or sparse.
+
+* TEXCOORD_0 -> `uv0` (zeros when absent); TEXCOORD_1 -> `uv1`, float32 values kept bit for bit.
+  `uv1` is None unless every triangle primitive has TEXCOORD_1 (mixed files get a warning).
+* NORMAL kept (else smooth `vertex_normals`), TANGENT kept when every primitive has it,
+  COLOR_0 -> RGBA `colors` (white where a primitive has none).
+* Degenerate triangles (a repeated index, or an area below float32 precision) are dropped.
+* Materials: baseColorFactor/Texture (sRGB decoded, alpha linear), emissiveFactor x
+  KHR_materials_emissive_strength, emissiveTexture (sRGB decoded), normalTexture (raw),
+  doubleSided; material `extras` {"shininess": float, "reflectivity": float}.
+* KHR_lights_punctual -> `Light` in radiometric units: lux / 683 -> W/m^2, cd / 683 -> W/sr.
+  Position is the node's world translation, direction its world -Z.  The light definition's
+  `extras` may hold {"falloff": "inverse-square" | "range", "angle": sun diameter in radians}.
+
+`Scene.extras` gets "skipped_primitives" (points/lines), "degenerate_triangles" and
+"warnings" (a list of one-line strings).
+
+Sky: the default scene's `extras` (else `asset.extras`) may hold one of
+
+    {"patchlight": {"sky": {"uniform": [r, g, b]}}}
+    {"patchlight": {"sky": {"gradient": {"zenith": [r, g, b], "horizon": [r, g, b], "ground": [r, g, b]}}}}
+    {"patchlight": {"sky": {"image": "relative/path.exr"}}}     (.exr or .hdr, equirectangular)
+
+in linear radiance (W/(m^2 sr)); see `patchlight.scene.sky` for the models.
+
+Export
+------
+`save_baked_glb` writes one .glb: the world-space triangle soup (identity nodes), one mesh
+per material, every mesh sharing the POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 (= `uv1`
+exactly), COLOR_0 and TANGENT accessors; materials (metallicFactor 0: patchlight surfaces are
+diffuse), lights in photometric units, uniform/gradient skies in the scene's extras, and the
+RGBM lightmap as a texture named "patchlight_lightmap", described in the root `extras`:
+
+    {"patchlight": {"lightmap": {"texture": <texture index>, "texCoord": 1, "encoding": "RGBM",
+                                 "rgbmRange": <float>, ...the caller's metadata}}}
+
+three.js's GLTFLoader reads TEXCOORD_1 as the `uv1` attribute and the root extras as
+`gltf.userData`; the viewer gets the texture with
+`gltf.parser.getDependency("texture", gltf.userData.patchlight.lightmap.texture)` and decodes
+RGBM as rgb * a * rgbmRange (the texture is linear data, no sRGB, no mipmaps, v = 0 at the top).
+Image skies are not written (the bake's own metadata records them).
+"""
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import math
+import struct
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import unquote, unquote_to_bytes
+
+import numpy as np
+import pygltflib as gl
+
+from ..errors import PatchlightError
+from ..imaging.color import linear_to_srgb, srgb_to_linear
+from ..imaging.io import atomic_path, decode_image, encode_png, read_bytes, read_environment
+from .model import Light, Material, Scene, vertex_normals
+from .sky import Sky
+
+# Photometric -> radiometric: 683 lm/W at 555 nm (KHR_lights_punctual intensities are lux / candela).
+LUMENS_PER_WATT = 683.0
+
+SUPPORTED_REQUIRED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                 "KHR_mesh_quantization"}
+
+_COMPONENT_DTYPES = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtype("<i2"),
+                     5123: np.dtype("<u2"), 5125: np.dtype("<u4"), 5126: np.dtype("<f4")}
+_NORMALIZED_MAX = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0}
+_INDEX_TYPES = (5121, 5123, 5125)
+_TYPE_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+_GLB_MAGIC, _CHUNK_JSON, _CHUNK_BIN = b"glTF", 0x4E4F534A, 0x004E4942
+_POINTS_AND_LINES = (0, 1, 2, 3)
+_TRIANGLES, _STRIP, _FAN = 4, 5, 6
+_FLOAT, _UINT = 5126, 5125
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+_LINEAR_FILTER, _CLAMP_TO_EDGE = 9729, 33071
+_DEGENERATE_SINE = 1e-7  # |e1 x e2| below this times the longest edge squared: zero area in float32
+
+
+# =========================================================================== import
+
+def load_gltf(path) -> Scene:
+    """Read a .gltf or .glb file into one world-space `Scene` (see the module docstring)."""
+    path = Path(path)
+    doc, blob = _read_document(path)
+    try:
+        scene = _Importer(path, doc, blob).scene()
+    except (TypeError, ValueError, AttributeError, KeyError) as exc:
+        # JSON values of the wrong type (a string where a list belongs, ...) surface as these.
+        raise PatchlightError(f"{path}: malformed glTF ({type(exc).__name__}: {exc})") from exc
+    scene.validate()
+    return scene
+
+
+def _read_document(path: Path) -> tuple[gl.GLTF2, bytes | None]:
+    """Parse the JSON (from a .gltf or a GLB container) into pygltflib objects + the BIN chunk."""
+    data = read_bytes(path)
+    if data[:4] == _GLB_MAGIC:
+        text, blob = _split_glb(data, path)
+    else:
+        text, blob = _json_text(data, path), None
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise PatchlightError(f"{path}: not a glTF file (invalid JSON: {exc})") from exc
+    if not isinstance(raw, dict) or not isinstance(raw.get("asset"), dict):
+        raise PatchlightError(f"{path}: not a glTF file (JSON without an 'asset' object)")
+    version = str(raw["asset"].get("version", ""))
+    if not version.startswith("2."):
+        raise PatchlightError(f"{path}: glTF version {version!r} is not supported (only 2.x)")
+    try:
+        doc = gl.GLTF2.from_json(text, infer_missing=True)
+    except Exception as exc:  # pygltflib's decoder raises whatever the bad value provokes
+        raise PatchlightError(f"{path}: malformed glTF ({type(exc).__name__}: {exc})") from exc
+    return doc, blob
+
+
+def _json_text(data: bytes, path: Path) -> str:
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise PatchlightError(f"{path}: not a glTF file (neither a GLB container nor UTF-8 JSON)") from None
+
+
+def _split_glb(data: bytes, path: Path) -> tuple[str, bytes | None]:
+    """The JSON chunk's text and the first BIN chunk of a GLB container."""
+    if len(data) < 12:
+        raise PatchlightError(f"{path}: truncated .glb ({len(data)} bytes, no complete header)")
+    version, length = struct.unpack_from("<II", data, 4)
+    if version != 2:
+        raise PatchlightError(f"{path}: GLB container version {version} is not supported (only 2)")
+    if length > len(data):
+        raise PatchlightError(f"{path}: truncated .glb (header says {length} bytes, file has {len(data)})")
+    chunks, pos = [], 12
+    while pos < length:
+        if pos + 8 > length:
+            raise PatchlightError(f"{path}: truncated .glb (chunk header cut off at byte {pos})")
+        size, kind = struct.unpack_from("<II", data, pos)
+        if pos + 8 + size > length:
+            raise PatchlightError(f"{path}: truncated .glb (chunk {len(chunks)} runs past the end)")
+        chunks.append((kind, data[pos + 8:pos + 8 + size]))
+        pos += 8 + size
+    if not chunks or chunks[0][0] != _CHUNK_JSON:
+        raise PatchlightError(f"{path}: malformed .glb (the first chunk is not JSON)")
+    blob = next((chunk for kind, chunk in chunks[1:] if kind == _CHUNK_BIN), None)
+    try:
+        return chunks[0][1].decode("utf-8"), blob
+    except UnicodeDecodeError:
+        raise PatchlightError(f"{path}: malformed .glb (JSON chunk is not UTF-8)") from None
+
+
+def _data_uri(uri: str) -> bytes:
+    """The payload of a data: URI (base64 or percent-encoded)."""
+    header, _, payload = uri.partition(",")
+    if header.endswith(";base64"):
+        return base64.b64decode(payload, validate=True)
+    return unquote_to_bytes(payload)
+
+
+@dataclass
+class _Block:
+    """The world-space vertices of one set of attribute accessors under one world matrix,
+    shared by every primitive that uses exactly those accessors there."""
+
+    positions: np.ndarray
+    normals: np.ndarray | None
+    uv0: np.ndarray
+    uv1: np.ndarray | None
+    tangents: np.ndarray | None
+    colors: np.ndarray | None
+    mirrored: bool
+    triangles: list[np.ndarray] = field(default_factory=list)
+    material_ids: list[np.ndarray] = field(default_factory=list)
+
+
+class _Importer:
+    """One glTF document being flattened; holds the decoded buffers and images."""
+
+    def __init__(self, path: Path, doc: gl.GLTF2, blob: bytes | None):
+        self.path, self.doc, self.blob = path, doc, blob
+        self.warnings: list[str] = []
+        self.skipped = 0
+        self.uses_default_material = False
+        self._buffers: dict[int, bytes] = {}
+        self._images: dict[int, np.ndarray] = {}
+
+    def fail(self, what: str) -> PatchlightError:
+        return PatchlightError(f"{self.path}: {what}")
+
+    def item(self, items: list | None, index, what: str):
+        """items[index], or a clear error for a missing or out-of-range index."""
+        items = items or []
+        if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(items):
+            raise self.fail(f"{what} {index!r} does not exist (the file defines {len(items)})")
+        return items[index]
+
+    # ------------------------------------------------------------------ the whole scene
+
+    def scene(self) -> Scene:
+        self._check_required_extensions()
+        instances = self._instances()
+        materials = [self._material(i) for i in range(len(self.doc.materials or []))]
+        blocks = self._blocks(instances, len(materials))
+        if self.uses_default_material:
+            materials.append(Material())
+        scene = self._assemble(blocks, materials)
+        scene.lights = self._lights(instances)
+        scene.sky = self._sky()
+        scene.name, scene.source = self.path.stem, str(self.path)
+        return scene
+
+    def _check_required_extensions(self) -> None:
+        unsupported = sorted(set(self.doc.extensionsRequired or []) - SUPPORTED_REQUIRED_EXTENSIONS)
+        if unsupported:
+            raise self.fail(f"requires unsupported glTF extension(s) {', '.join(unsupported)}")
+
+    def _instances(self) -> list[tuple[int, np.ndarray]]:
+        """(node index, (4, 4) float64 world matrix) for every node under the chosen roots, depth first."""
+        out, seen = [], set()
+        stack = [(root, np.eye(4)) for root in reversed(self._root_nodes())]
+        while stack:
+            index, parent = stack.pop()
+            if index in seen:
+                raise self.fail(f"node {index} appears twice in the node hierarchy (a cycle or a shared child)")
+            seen.add(index)
+            node = self.item(self.doc.nodes, index, "node")
+            world = parent @ self._local_matrix(node, index)
+            out.append((index, world))
+            stack.extend((child, world) for child in reversed(node.children or []))
+        return out
+
+    def _root_nodes(self) -> list[int]:
+        if self.doc.scenes:
+            chosen = self.doc.scene if self.doc.scene is not None else 0
+            return list(self.item(self.doc.scenes, chosen, "scene").nodes or [])
+        children = {c for node in self.doc.nodes or [] for c in node.children or []}
+        return [i for i in range(len(self.doc.nodes or [])) if i not in children]
+
+    def _local_matrix(self, node: gl.Node, index: int) -> np.ndarray:
+        if node.matrix is not None:
+            if len(node.matrix) != 16:
+                raise self.fail(f"node {index}: matrix has {len(node.matrix)} numbers, not 16")
+            return np.asarray(node.matrix, np.float64).reshape(4, 4).T  # glTF stores columns
+        matrix = np.eye(4)
+        if node.scale is not None:
+            matrix = np.diag([*np.asarray(node.scale, np.float64).reshape(3), 1.0])
+        if node.rotation is not None:
+            matrix = _quaternion_matrix(node.rotation, lambda: self.fail(f"node {index}: zero rotation quaternion")) @ matrix
+        if node.translation is not None:
+            matrix[:3, 3] = np.asarray(node.translation, np.float64).reshape(3)
+        return matrix
+
+    # ------------------------------------------------------------------ buffers and accessors
+
+    def buffer(self, index) -> bytes:
+        if index not in self._buffers:
+            buf = self.item(self.doc.buffers, index, "buffer")
+            data = self._resource(buf.uri, f"buffer {index}") if buf.uri is not None else self.blob
+            if data is None:
+                raise self.fail(f"buffer {index} has no uri and the file has no GLB binary chunk")
+            if buf.byteLength is not None and len(data) < buf.byteLength:
+                raise self.fail(f"buffer {index} holds {len(data)} bytes, less than its byteLength {buf.byteLength}")
+            self._buffers[index] = data
+        return self._buffers[index]
+
+    def _resource(self, uri: str, what: str) -> bytes:
+        """Bytes behind a buffer or image uri: a data: URI or a file next to the glTF."""
+        if uri.startswith("data:"):
+            try:
+                return _data_uri(uri)
+            except (binascii.Error, ValueError) as exc:
+                raise self.fail(f"{what}: bad data: URI ({exc})") from exc
+        if "://" in uri:
+            raise self.fail(f"{what}: remote uri {uri[:60]!r}; patchlight reads local files only")
+        target = self.path.parent / unquote(uri)
+        if not target.is_file():
+            raise self.fail(f"{what}: file {uri!r} not found next to the glTF")
+        return read_bytes(target)
+
+    def view_bytes(self, index) -> memoryview:
+        view = self.item(self.doc.bufferViews, index, "bufferView")
+        data = self.buffer(view.buffer)
+        start = view.byteOffset or 0
+        if view.byteLength is None or start + view.byteLength > len(data):
+            raise self.fail(f"bufferView {index} (bytes {start}..{start + (view.byteLength or 0)}) "
+                            f"runs past the end of buffer {view.buffer} ({len(data)} bytes)")
+        return memoryview(data)[start:start + view.byteLength]
+
+    def _strided(self, view_index, offset: int, count: int, width: int, dtype: np.dtype, what: str) -> np.ndarray:
+        """(count, width) elements read from a bufferView at `offset`, honouring byteStride."""
+        data = self.view_bytes(view_index)
+        element = width * dtype.itemsize
+        stride = self.doc.bufferViews[view_index].byteStride or element
+        if stride < element:
+            raise self.fail(f"{what}: byteStride {stride} is smaller than an element ({element} bytes)")
+        end = offset + stride * (count - 1) + element if count else offset
+        if end > len(data):
+            raise self.fail(f"{what} reads bytes up to {end} but bufferView {view_index} holds {len(data)}")
+        if count == 0:
+            return np.zeros((0, width), dtype)
+        return np.ndarray((count, width), dtype, buffer=data, offset=offset, strides=(stride, dtype.itemsize)).copy()
+
+    def accessor(self, index) -> np.ndarray:
+        """(count, width) values of an accessor in its stored component type."""
+        acc = self.item(self.doc.accessors, index, "accessor")
+        what = f"accessor {index}"
+        dtype = _COMPONENT_DTYPES.get(acc.componentType)
+        width = _TYPE_WIDTHS.get(acc.type)
+        if dtype is None or width is None:
+            raise self.fail(f"{what}: unsupported componentType {acc.componentType} / type {acc.type!r}")
+        count = int(acc.count or 0)
+        if acc.bufferView is None:
+            values = np.zeros((count, width), dtype)
+        else:
+            values = self._strided(acc.bufferView, acc.byteOffset or 0, count, width, dtype, what)
+        if acc.sparse is not None:
+            values = self._apply_sparse(acc.sparse, values, what)
+        return values
+
+    def _apply_sparse(self, sparse: gl.Sparse, values: np.ndarray, what: str) -> np.ndarray:
+        """Overwrite the listed elements with the sparse substitutes."""
+        index_type = _COMPONENT_DTYPES.get(sparse.indices.componentType)
+        if sparse.indices.componentType not in _INDEX_TYPES:
+            raise self.fail(f"{what}: sparse indices must be unsigned integers")
+        where = self._strided(sparse.indices.bufferView, sparse.indices.byteOffset or 0, sparse.count,
+                              1, index_type, f"{what} sparse indices")[:, 0].astype(np.int64)
+        substitutes = self._strided(sparse.values.bufferView, sparse.values.byteOffset or 0, sparse.count,
+                                    values.shape[1], values.dtype, f"{what} sparse values")
+        if where.size and where.max() >= len(values):
+            raise self.fail(f"{what}: sparse index {int(where.max())} is past its {len(values)} elements")
+        values = values.copy()
+        values[where] = substitutes
+        return values
+
+    def floats(self, index, widths: tuple[int, ...], what: str) -> np.ndarray:
+        """A float32 attribute; normalized integers mapped to [0, 1] / [-1, 1] as glTF says."""
+        values = self.accessor(index)
+        if values.shape[1] not in widths:
+            raise self.fail(f"{what}: accessor {index} has {values.shape[1]} components, expected {widths}")
+        acc = self.doc.accessors[index]
+        if acc.componentType == _FLOAT:
+            return values
+        if acc.normalized:
+            return np.maximum(values / _NORMALIZED_MAX[acc.componentType], -1.0).astype(np.float32)
+        return values.astype(np.float32)
+
+    # ------------------------------------------------------------------ meshes
+
+    def _blocks(self, instances, default_material: int) -> list[_Block]:
+        """Gather every triangle primitive of every mesh instance into vertex blocks."""
+        blocks: dict[tuple, _Block] = {}
+        uses = Counter()
+        for node_index, world in instances:
+            node = self.doc.nodes[node_index]
+            if node.mesh is None:
+                continue
+            mesh = self.item(self.doc.meshes, node.mesh, "mesh")
+            label = repr(mesh.name) if mesh.name else str(node.mesh)
+            uses[node.mesh] += 1
+            if node.skin is not None or any(p.targets for p in mesh.primitives or []):
+                self.warnings.append(f"mesh {label}: skinning and morph targets ignored (rest pose used)")
+            for number, primitive in enumerate(mesh.primitives or []):
+                mode = _TRIANGLES if primitive.mode is None else primitive.mode
+                if mode in _POINTS_AND_LINES:
+                    self.skipped += 1
+                    continue
+                if mode not in (_TRIANGLES, _STRIP, _FAN):
+                    raise self.fail(f"mesh {label} primitive {number}: unknown mode {mode}")
+                attributes = _attribute_map(primitive)
+                key = (world.tobytes(), tuple(sorted(attributes.items())))
+                if key not in blocks:
+                    blocks[key] = self._block(attributes, world, f"mesh {label} primitive {number}", label)
+                block = blocks[key]
+                triangles = self._triangles(primitive, mode, len(block.positions), f"mesh {label} primitive {number}")
+                material = primitive.material
+                if material is None:
+                    material, self.uses_default_material = default_material, True
+                else:
+                    self.item(self.doc.materials, material, "material")
+                block.triangles.append(triangles)
+                block.material_ids.append(np.full(len(triangles), material, np.int32))
+        self._warn_about_instances(uses, blocks.values())
+        return list(blocks.values())
+
+    def _block(self, attributes: dict[str, int], world: np.ndarray, where: str, label: str) -> _Block:
+        if "POSITION" not in attributes:
+            raise self.fail(f"{where} has no POSITION attribute")
+        local = self.floats(attributes["POSITION"], (3,), where)
+        if not np.all(np.isfinite(local)):
+            bad = int(np.count_nonzero(~np.isfinite(local).all(axis=1)))
+            raise self.fail(f"mesh {label}: {bad} vertex positions are NaN or infinite")
+        count = len(local)
+
+        def attribute(name: str, widths: tuple[int, ...]) -> np.ndarray | None:
+            if name not in attributes:
+                return None
+            values = self.floats(attributes[name], widths, f"{where} {name}")
+            if len(values) != count:
+                raise self.fail(f"{where}: {name} has {len(values)} elements but POSITION has {count}")
+            return values
+
+        linear = world[:3, :3]
+        det = float(np.linalg.det(linear))
+        identity = np.array_equal(world, np.eye(4))
+        positions = local if identity else (local @ linear.T + world[:3, 3]).astype(np.float32)
+        normals = attribute("NORMAL", (3,))
+        if normals is not None and not identity:
+            normals = _unit_rows(normals @ np.linalg.pinv(linear))  # rows times inverse = inverse transpose
+        tangents = attribute("TANGENT", (4,))
+        if tangents is not None and not identity:
+            tangents = np.concatenate([_unit_rows(tangents[:, :3] @ linear.T),
+                                       tangents[:, 3:] * np.float32(np.sign(det) or 1.0)], axis=1)
+        colors = attribute("COLOR_0", (3, 4))
+        if colors is not None and colors.shape[1] == 3:
+            colors = np.concatenate([colors, np.ones((count, 1), np.float32)], axis=1)
+        uv0 = attribute("TEXCOORD_0", (2,))
+        return _Block(positions=positions, normals=normals,
+                      uv0=np.zeros((count, 2), np.float32) if uv0 is None else uv0,
+                      uv1=attribute("TEXCOORD_1", (2,)), tangents=tangents, colors=colors, mirrored=det < 0)
+
+    def _triangles(self, primitive: gl.Primitive, mode: int, vertex_count: int, where: str) -> np.ndarray:
+        """(T, 3) int64 vertex indices of a triangle list, strip or fan, in glTF winding."""
+        if primitive.indices is None:
+            index = np.arange(vertex_count, dtype=np.int64)
+        else:
+            if self.item(self.doc.accessors, primitive.indices, "accessor").componentType not in _INDEX_TYPES:
+                raise self.fail(f"{where}: indices must be unsigned integers")
+            index = self.accessor(primitive.indices)[:, 0].astype(np.int64)
+            if index.size and index.max() >= vertex_count:
+                raise self.fail(f"{where}: index {int(index.max())} is past its {vertex_count} vertices")
+        if mode == _TRIANGLES:
+            if len(index) % 3:
+                raise self.fail(f"{where}: {len(index)} triangle indices is not a multiple of 3")
+            return index.reshape(-1, 3)
+        k = np.arange(max(len(index) - 2, 0))
+        if mode == _STRIP:  # every odd triangle swaps its last two corners to keep the winding
+            return np.stack([index[k], index[k + 1 + k % 2], index[k + 2 - k % 2]], axis=1)
+        return np.stack([index[k + 1], index[k + 2], np.full(len(k), index[0] if len(index) else 0)], axis=1)
+
+    def _warn_about_instances(self, uses: Counter, blocks) -> None:
+        if all(b.uv1 is not None for b in blocks):
+            for mesh, n in sorted(uses.items()):
+                if n > 1:
+                    self.warnings.append(f"mesh {mesh} is instanced {n} times: its TEXCOORD_1 lightmap charts overlap")
+
+    def _assemble(self, blocks: list[_Block], materials: list[Material]) -> Scene:
+        """Concatenate the blocks into the scene arrays, dropping degenerate triangles."""
+        if not blocks:
+            raise self.fail(f"no triangles ({self.skipped} point/line primitives skipped)")
+        degenerate, offset, indices = 0, 0, []
+        for block in blocks:
+            triangles = np.concatenate(block.triangles)
+            keep = ~_degenerate(block.positions, triangles)
+            degenerate += int(np.count_nonzero(~keep))
+            triangles, ids = triangles[keep], np.concatenate(block.material_ids)[keep]
+            if block.mirrored:
+                triangles = triangles[:, [0, 2, 1]]
+            if block.normals is None:
+                block.normals = vertex_normals(block.positions, triangles)
+            indices.append(triangles + offset)
+            block.material_ids = ids
+            offset += len(block.positions)
+        indices = np.concatenate(indices).astype(np.int32)
+        if len(indices) == 0:
+            raise self.fail(f"no triangles left ({degenerate} degenerate dropped, "
+                            f"{self.skipped} point/line primitives skipped)")
+        scene = Scene(positions=np.concatenate([b.positions for b in blocks]),
+                      normals=np.concatenate([b.normals for b in blocks]),
+                      uv0=np.concatenate([b.uv0 for b in blocks]),
+                      indices=indices,
+                      material_ids=np.concatenate([b.material_ids for b in blocks]).astype(np.int32),
+                      materials=materials,
+                      uv1=self._all_or_none(blocks, "uv1", "TEXCOORD_1"),
+                      tangents=self._all_or_none(blocks, "tangents", "TANGENT"),
+                      colors=_fill_colors(blocks))
+        scene.extras.update(skipped_primitives=self.skipped, degenerate_triangles=degenerate,
+                            warnings=self.warnings)
+        return scene
+
+    def _all_or_none(self, blocks: list[_Block], name: str, attribute: str) -> np.ndarray | None:
+        arrays = [getattr(b, name) for b in blocks]
+        present = sum(a is not None for a in arrays)
+        if present == len(arrays):
+            return np.concatenate(arrays)
+        if present:
+            self.warnings.append(f"{attribute} is on only some primitives ({present} of {len(arrays)} "
+                                 f"vertex sets): ignored for the whole scene")
+        return None
+
+    # ------------------------------------------------------------------ materials and images
+
+    def _material(self, index: int) -> Material:
+        source = self.doc.materials[index]
+        name = source.name or f"material_{index}"
+        where = f"material {name!r}"
+        pbr = source.pbrMetallicRoughness or gl.PbrMetallicRoughness()
+        material = Material(name=name, double_sided=bool(source.doubleSided))
+        material.base_color = _vector(pbr.baseColorFactor, [1.0, 1.0, 1.0, 1.0], 4, self.fail(f"{where}: bad baseColorFactor"))
+        base = self._texture(pbr.baseColorTexture, f"{where} baseColorTexture")
+        if base is not None:
+            rgba = _rgba(base)
+            rgba[..., :3] = srgb_to_linear(rgba[..., :3])
+            material.base_color_texture = rgba
+        strength = float(((source.extensions or {}).get("KHR_materials_emissive_strength") or {})
+                         .get("emissiveStrength", 1.0))
+        emissive = _vector(source.emissiveFactor, [0.0, 0.0, 0.0], 3, self.fail(f"{where}: bad emissiveFactor"))
+        material.emissive = (emissive * np.float32(strength)).astype(np.float32)
+        emission = self._texture(source.emissiveTexture, f"{where} emissiveTexture")
+        if emission is not None:
+            material.emissive_texture = srgb_to_linear(_rgba(emission)[..., :3])
+        normal = self._texture(source.normalTexture, f"{where} normalTexture")
+        if normal is not None:
+            material.normal_texture = np.ascontiguousarray(_rgba(normal)[..., :3])
+        for key in ("shininess", "reflectivity"):
+            value = (source.extras or {}).get(key)
+            if value is not None:
+                if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                    raise self.fail(f"{where}: extras.{key} must be a number, not {value!r}")
+                setattr(material, key, float(value))
+        return material
+
+    def _texture(self, info, where: str) -> np.ndarray | None:
+        """The decoded image (H, W, C) float32 in [0, 1] behind a material's texture reference."""
+        if info is None or info.index is None:
+            return None
+        texture = self.item(self.doc.textures, info.index, f"{where}: texture")
+        if texture.source is None:
+            self.warnings.append(f"{where}: texture {info.index} has no PNG/JPEG source (ignored)")
+            return None
+        if info.texCoord:
+            self.warnings.append(f"{where} uses TEXCOORD_{info.texCoord}; patchlight samples it with TEXCOORD_0")
+        return self._image(texture.source)
+
+    def _image(self, index) -> np.ndarray:
+        if index not in self._images:
+            image = self.item(self.doc.images, index, "image")
+            if image.bufferView is not None:
+                data, label = bytes(self.view_bytes(image.bufferView)), f"image {index} (bufferView {image.bufferView})"
+            elif image.uri:
+                label = f"image {index} ({image.uri[:40]!r})"
+                data = self._resource(image.uri, label)
+            else:
+                raise self.fail(f"image {index} has neither a uri nor a bufferView")
+            self._images[index] = decode_image(data, f"{self.path}: {label}")
+        return self._images[index]
+
+    # ------------------------------------------------------------------ lights and sky
+
+    def _lights(self, instances) -> list[Light]:
+        definitions = ((self.doc.extensions or {}).get("KHR_lights_punctual") or {}).get("lights") or []
+        lights = []
+        for node_index, world in instances:
+            reference = (self.doc.nodes[node_index].extensions or {}).get("KHR_lights_punctual")
+            if reference is not None:
+                spec = self.item(definitions, reference.get("light"), f"node {node_index}: KHR_lights_punctual light")
+                lights.append(self._light(spec, world, f"light {reference.get('light')}"))
+        return lights
+
+    def _light(self, spec: dict, world: np.ndarray, where: str) -> Light:
+        kind = spec.get("type")
+        if kind not in ("directional", "point", "spot"):
+            raise self.fail(f"{where}: unknown light type {kind!r}")
+        intensity = float(spec.get("intensity", 1.0))
+        light_range = spec.get("range")
+        cone = spec.get("spot") or {}
+        inner, outer = float(cone.get("innerConeAngle", 0.0)), float(cone.get("outerConeAngle", math.pi / 4))
+        extras = spec.get("extras") or {}
+        falloff, angle = extras.get("falloff"), float(extras.get("angle", 0.0))
+        direction = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
+        if intensity < 0 or (light_range is not None and float(light_range) <= 0):
+            raise self.fail(f"{where}: intensity must be >= 0 and range > 0")
+        if kind == "spot" and not 0 <= inner <= outer <= math.pi / 2:
+            raise self.fail(f"{where}: cone angles need 0 <= inner ({inner}) <= outer ({outer}) <= pi/2")
+        if falloff not in (None, "inverse-square", "range") or not 0 <= angle < math.pi:
+            raise self.fail(f"{where}: extras need falloff 'inverse-square' | 'range' and 0 <= angle < pi")
+        if not np.linalg.norm(direction) > 0:
+            raise self.fail(f"{where}: its node's transform collapses the light direction")
+        return Light(kind=kind, color=_vector(spec.get("color"), [1.0, 1.0, 1.0], 3, self.fail(f"{where}: bad color")),
+                     intensity=intensity / LUMENS_PER_WATT,
+                     position=world[:3, 3].astype(np.float32),
+                     direction=(direction / np.linalg.norm(direction)).astype(np.float32),
+                     range=None if light_range is None else float(light_range),
+                     inner_cone=inner, outer_cone=outer, falloff=falloff, angle=angle,
+                     name=str(spec.get("name", "")))
+
+    def _sky(self) -> Sky | None:
+        holders = []
+        if self.doc.scenes:
+            holders.append(self.doc.scenes[self.doc.scene if self.doc.scene is not None else 0].extras)
+        holders.append(self.doc.asset.extras if self.doc.asset else None)
+        for extras in holders:
+            spec = ((extras or {}).get("patchlight") or {}).get("sky") if isinstance(extras, dict) else None
+            if spec is not None:
+                return self._parse_sky(spec)
+        return None
+
+    def _parse_sky(self, spec) -> Sky:
+        bad = self.fail("extras.patchlight.sky must hold one of 'uniform', 'gradient' or 'image'")
+        if not isinstance(spec, dict) or len(spec) != 1:
+            raise bad
+        (kind, value), = spec.items()
+
+        def radiance(rgb, what):
+            color = _vector(rgb, None, 3, self.fail(f"sky {what}: want three non-negative numbers"))
+            if not np.all(color >= 0):
+                raise self.fail(f"sky {what}: want three non-negative numbers")
+            return color
+
+        if kind == "uniform":
+            return Sky.uniform(radiance(value, "uniform"))
+        if kind == "gradient":
+            if not isinstance(value, dict):
+                raise bad
+            return Sky.gradient(*(radiance(value.get(k), f"gradient.{k}") for k in ("zenith", "horizon", "ground")))
+        if kind == "image" and isinstance(value, str):
+            return Sky.from_image(read_environment(self.path.parent / value))
+        raise bad
+
+
+def _attribute_map(primitive: gl.Primitive) -> dict[str, int]:
+    raw = primitive.attributes
+    items = vars(raw) if isinstance(raw, gl.Attributes) else dict(raw or {})
+    return {name: index for name, index in items.items() if index is not None}
+
+
+def _quaternion_matrix(q, zero_error) -> np.ndarray:
+    """(4, 4) rotation from a glTF quaternion [x, y, z, w] (normalised here)."""
+    x, y, z, w = np.asarray(q, np.float64).reshape(4)
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if norm == 0:
+        raise zero_error()
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    matrix = np.eye(4)
+    matrix[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    return matrix
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    """Rows scaled to unit length (zero rows stay zero), float32."""
+    length = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.divide(v, length, out=np.zeros_like(v, np.float64), where=length > 0).astype(np.float32)
+
+
+def _degenerate(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T,) bool: a repeated vertex index, or an area below float32 precision."""
+    repeated = ((triangles[:, 0] == triangles[:, 1]) | (triangles[:, 1] == triangles[:, 2])
+                | (triangles[:, 0] == triangles[:, 2]))
+    corners = positions[triangles].astype(np.float64)
+    edges = corners[:, [1, 2, 0]] - corners
+    twice_area = np.linalg.norm(np.cross(edges[:, 0], -edges[:, 2]), axis=1)
+    longest = (edges ** 2).sum(axis=2).max(axis=1)
+    return repeated | (twice_area <= _DEGENERATE_SINE * longest)
+
+
+def _fill_colors(blocks: list[_Block]) -> np.ndarray | None:
+    """RGBA colours for every vertex when any primitive has COLOR_0 (white where it is missing)."""
+    if all(b.colors is None for b in blocks):
+        return None
+    return np.concatenate([b.colors if b.colors is not None else np.ones((len(b.positions), 4), np.float32)
+                           for b in blocks])
+
+
+def _vector(value, default, n: int, error: PatchlightError) -> np.ndarray:
+    """A list of n finite numbers as float32 (default when None)."""
+    if value is None:
+        if default is None:
+            raise error
+        value = default
+    try:
+        array = np.asarray(value, np.float64).reshape(n)
+    except (TypeError, ValueError):
+        raise error from None
+    if not np.all(np.isfinite(array)):
+        raise error
+    return array.astype(np.float32)
+
+
+def _rgba(image: np.ndarray) -> np.ndarray:
+    """(H, W, C) grey, grey+alpha, RGB or RGBA -> a new (H, W, 4) float32 array."""
+    channels = image.shape[2]
+    if channels in (1, 2):
+        rgb, alpha = np.repeat(image[..., :1], 3, axis=2), image[..., 1:] if channels == 2 else None
+    else:
+        rgb, alpha = image[..., :3], image[..., 3:] if channels == 4 else None
+    if alpha is None:
+        alpha = np.ones(image.shape[:2] + (1,), np.float32)
+    return np.concatenate([rgb, alpha], axis=2).astype(np.float32)
+
+
+# =========================================================================== export
+
+def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = None,
+                   lightmap_meta: dict | None = None) -> Path:
+    """Write `scene` (and its RGBM lightmap PNG, if given) as one .glb, atomically; returns the path.
+
+    lightmap_meta: JSON-able dict stored with the lightmap; it must hold "rgbmRange" (> 0, the
+    value an RGBM texel with rgb = a = 1 decodes to).  Layout: see the module docstring.
+    """
+    writer = _GlbWriter()
+    attributes = writer.vertex_attributes(scene)
+    writer.doc.materials = [writer.material(m) for m in scene.materials]
+    nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights)
+    writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras=_sky_extras(scene.sky))]
+    writer.doc.scene = 0
+    if lightmap_rgbm_png_bytes is not None:
+        if scene.uv1 is None:
+            raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
+        writer.lightmap(lightmap_rgbm_png_bytes, lightmap_meta or {})
+    glb = writer.finish()
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(glb)
+    return Path(path)
+
+
+class _GlbWriter:
+    """Builds one pygltflib document whose single buffer is the GLB binary chunk."""
+
+    def __init__(self):
+        self.doc = gl.GLTF2(asset=gl.Asset(generator="patchlight", version="2.0"))
+        self.blob = bytearray()
+
+    def finish(self) -> bytes:
+        self.doc.buffers = [gl.Buffer(byteLength=len(self.blob))]
+        self.doc.set_binary_blob(bytes(self.blob))
+        return b"".join(self.doc.save_to_bytes())
+
+    def use_extension(self, name: str) -> None:
+        if name not in self.doc.extensionsUsed:
+            self.doc.extensionsUsed.append(name)
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        self.doc.bufferViews.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data),
+                                                  target=target))
+        self.blob += data
+        return len(self.doc.bufferViews) - 1
+
+    def accessor(self, array: np.ndarray, kind: str, target: int, bounds: bool = False) -> int:
+        """A float32 vertex attribute or a uint32 index list, tightly packed."""
+        array = np.ascontiguousarray(array)
+        accessor = gl.Accessor(bufferView=self.view(array.tobytes(), target), count=len(array), type=kind,
+                               componentType=_FLOAT if array.dtype == np.float32 else _UINT)
+        if bounds:  # POSITION must carry its bounds
+            accessor.min, accessor.max = array.min(axis=0).tolist(), array.max(axis=0).tolist()
+        self.doc.accessors.append(accessor)
+        return len(self.doc.accessors) - 1
+
+    def vertex_attributes(self, scene: Scene) -> dict[str, int]:
+        """Accessor per attribute, shared by every mesh."""
+        def add(values, kind, bounds=False):
+            return self.accessor(np.asarray(values, np.float32), kind, _ARRAY_BUFFER, bounds)
+
+        attributes = {"POSITION": add(scene.positions, "VEC3", bounds=True),
+                      "NORMAL": add(scene.normals, "VEC3"), "TEXCOORD_0": add(scene.uv0, "VEC2")}
+        optional = {"TEXCOORD_1": (scene.uv1, "VEC2"), "COLOR_0": (scene.colors, "VEC4"),
+                    "TANGENT": (scene.tangents, "VEC4")}
+        attributes.update({name: add(values, kind) for name, (values, kind) in optional.items() if values is not None})
+        return attributes
+
+    def meshes(self, scene: Scene, attributes: dict[str, int]) -> list[int]:
+        """One mesh (and one identity node) per material that has triangles; returns the node indices."""
+        nodes = []
+        for material_id, material in enumerate(scene.materials):
+            triangles = scene.indices[scene.material_ids == material_id]
+            if not len(triangles):
+                continue
+            indices = self.accessor(triangles.astype(np.uint32).ravel(), "SCALAR", _ELEMENT_ARRAY_BUFFER)
+            primitive = gl.Primitive(attributes=gl.Attributes(**attributes), indices=indices,
+                                     material=material_id, mode=_TRIANGLES)
+            self.doc.meshes.append(gl.Mesh(name=material.name, primitives=[primitive]))
+            self.doc.nodes.append(gl.Node(name=material.name, mesh=len(self.doc.meshes) - 1))
+            nodes.append(len(self.doc.nodes) - 1)
+        return nodes
+
+    def texture(self, png: bytes, name: str | None = None, sampler: int | None = None) -> int:
+        self.doc.images.append(gl.Image(bufferView=self.view(png), mimeType="image/png", name=name))
+        self.doc.textures.append(gl.Texture(source=len(self.doc.images) - 1, sampler=sampler, name=name))
+        return len(self.doc.textures) - 1
+
+    def material(self, material: Material) -> gl.Material:
+        peak = float(np.max(material.emissive))
+        strength = peak if peak > 1.0 else 1.0  # emissiveFactor must stay in [0, 1]
+        pbr = gl.PbrMetallicRoughness(baseColorFactor=_floats(material.base_color), metallicFactor=0.0,
+                                      roughnessFactor=1.0)
+        out = gl.Material(name=material.name, pbrMetallicRoughness=pbr, doubleSided=bool(material.double_sided),
+                          emissiveFactor=_floats(material.emissive / np.float32(strength)),
+                          extras={"shininess": float(material.shininess), "reflectivity": float(material.reflectivity)})
+        if strength > 1.0:
+            out.extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": strength}}
+            self.use_extension("KHR_materials_emissive_strength")
+        if material.base_color_texture is not None:
+            pbr.baseColorTexture = gl.TextureInfo(index=self.texture(_srgb_png(material.base_color_texture)))
+        if material.emissive_texture is not None:
+            out.emissiveTexture = gl.TextureInfo(index=self.texture(_srgb_png(material.emissive_texture)))
+        if material.normal_texture is not None:
+            out.normalTexture = gl.NormalMaterialTexture(index=self.texture(encode_png(_to_uint8(material.normal_texture))))
+        return out
+
+    def lights(self, lights: list[Light]) -> list[int]:
+        """KHR_lights_punctual definitions in photometric units and one oriented node each."""
+        nodes, specs = [], []
+        for number, light in enumerate(lights):
+            spec = {"type": light.kind, "color": _floats(light.color),
+                    "intensity": float(light.intensity) * LUMENS_PER_WATT}
+            if light.name:
+                spec["name"] = light.name
+            if light.range is not None:
+                spec["range"] = float(light.range)
+            if light.kind == "spot":
+                spec["spot"] = {"innerConeAngle": float(light.inner_cone), "outerConeAngle": float(light.outer_cone)}
+            extras = {"falloff": light.falloff, "angle": float(light.angle) if light.angle else None}
+            if any(v is not None for v in extras.values()):
+                spec["extras"] = {k: v for k, v in extras.items() if v is not None}
+            specs.append(spec)
+            self.doc.nodes.append(gl.Node(name=light.name or f"light_{number}", translation=_floats(light.position),
+                                          rotation=_rotation_onto(light.direction),
+                                          extensions={"KHR_lights_punctual": {"light": number}}))
+            nodes.append(len(self.doc.nodes) - 1)
+        if specs:
+            self.doc.extensions["KHR_lights_punctual"] = {"lights": specs}
+            self.use_extension("KHR_lights_punctual")
+        return nodes
+
+    def lightmap(self, png: bytes, meta: dict) -> None:
+        """The RGBM lightmap as texture "patchlight_lightmap" and its description in the root extras."""
+        if not png.startswith(b"\x89PNG\r\n\x1a\n"):
+            raise ValueError("save_baked_glb: lightmap_rgbm_png_bytes is not a PNG")
+        rgbm_range = meta.get("rgbmRange")
+        if not isinstance(rgbm_range, (int, float, np.number)) or not 0 < float(rgbm_range) < math.inf:
+            raise ValueError(f"save_baked_glb: lightmap_meta needs a positive 'rgbmRange', got {rgbm_range!r}")
+        self.doc.samplers.append(gl.Sampler(magFilter=_LINEAR_FILTER, minFilter=_LINEAR_FILTER,
+                                            wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE))
+        texture = self.texture(png, "patchlight_lightmap", sampler=len(self.doc.samplers) - 1)
+        self.doc.extras = {"patchlight": {"lightmap": {**_jsonable(meta), "texture": texture, "texCoord": 1,
+                                                       "encoding": "RGBM", "rgbmRange": float(rgbm_range)}}}
+
+
+def _floats(values) -> list[float]:
+    return [float(v) for v in np.asarray(values).ravel()]
+
+
+def _to_uint8(values: np.ndarray) -> np.ndarray:
+    return np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def _srgb_png(linear: np.ndarray) -> bytes:
+    """PNG of a linear (H, W, 3|4) float texture: RGB sRGB-encoded, alpha kept linear."""
+    encoded = np.array(linear, np.float32)
+    encoded[..., :3] = linear_to_srgb(np.clip(encoded[..., :3], 0.0, 1.0))
+    return encode_png(_to_uint8(encoded))
+
+
+def _rotation_onto(direction) -> list[float]:
+    """Unit quaternion [x, y, z, w] turning the node's -Z onto `direction`."""
+    forward = np.array([0.0, 0.0, -1.0])
+    d = np.asarray(direction, np.float64)
+    d = d / np.linalg.norm(d)
+    cosine = float(forward @ d)
+    if cosine < -1.0 + 1e-12:  # opposite: half a turn about Y
+        return [0.0, 1.0, 0.0, 0.0]
+    q = np.array([*np.cross(forward, d), 1.0 + cosine])
+    return _floats(q / np.linalg.norm(q))
+
+
+def _sky_extras(sky: Sky | None) -> dict:
+    if sky is None or sky.kind == "image":
+        return {}
+    if sky.kind == "uniform":
+        return {"patchlight": {"sky": {"uniform": _floats(sky.colors[0])}}}
+    zenith, horizon, ground = (_floats(c) for c in sky.colors)
+    return {"patchlight": {"sky": {"gradient": {"zenith": zenith, "horizon": horizon, "ground": ground}}}}
+
+
+def _jsonable(value):
+    """Numpy scalars and arrays inside dicts/lists turned into plain JSON values."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
