@@ -5,8 +5,7 @@ IN holds positions (V, 3) f32, indices (T, 3) u32, padding, texels_per_unit (0: 
 resolution (0: none).  OUT gets vmapping (V',) u32 (source vertex of each output vertex),
 indices (T, 3) u32, uv (V', 2) f64 in texel units, width, height, texels_per_unit, charts.
 
-With a resolution, texels_per_unit is searched so the single atlas fits in it: xatlas's own
-estimate first, then shrunk until the charts fit on one page no larger than the resolution.
+With a resolution, texels_per_unit is searched so the charts fill one page of that size.
 Setting PATCHLIGHT_XATLAS_CHILD_CRASH=1 makes the child kill itself with SIGSEGV (for tests
 of the parent's fallback path).
 """
@@ -18,7 +17,8 @@ import sys
 
 import numpy as np
 
-FIT_ATTEMPTS = 12
+SHRINK_ATTEMPTS = 12
+BISECTIONS = 4
 
 
 def _generate(positions, indices, padding, texels_per_unit, resolution):
@@ -41,19 +41,37 @@ def _fits(atlas, resolution):
 
 
 def _fitted(positions, indices, padding, resolution):
-    """The atlas with the largest tried texel density whose charts fit one page of the resolution."""
+    """The atlas of the largest texel density found whose charts fit one resolution-sized page:
+    xatlas's own estimate, shrunk (or grown) until it fits (or fails), then bisected."""
     atlas = _generate(positions, indices, padding, 0.0, resolution)
+    fitting, failing = None, None
     density = float(atlas.texels_per_unit)
-    for _ in range(FIT_ATTEMPTS):
+    for _ in range(SHRINK_ATTEMPTS):
         if _fits(atlas, resolution):
-            return atlas
-        overflow = max(atlas.width, atlas.height) / resolution
-        shrink = min(0.97, 0.98 / overflow) if atlas.atlas_count == 1 else 0.9 / np.sqrt(atlas.atlas_count)
-        density *= shrink
+            fitting = (density, atlas)
+            break
+        failing = density
+        overflow = max(atlas.width / resolution, atlas.height / resolution, np.sqrt(atlas.atlas_count))
+        density *= min(0.9, 0.98 / overflow)
         atlas = _generate(positions, indices, padding, density, resolution)
-    if not _fits(atlas, resolution):
+    if fitting is None:
         raise SystemExit(f"xatlas could not fit the charts in {resolution}x{resolution}")
-    return atlas
+    limit = 64 * density
+    while failing is None and density < limit:  # the estimate fitted: grow until it fails
+        density *= 1.25
+        atlas = _generate(positions, indices, padding, density, resolution)
+        if _fits(atlas, resolution):
+            fitting = (density, atlas)
+        else:
+            failing = density
+    for _ in range(BISECTIONS if failing is not None else 0):
+        density = 0.5 * (fitting[0] + failing)
+        atlas = _generate(positions, indices, padding, density, resolution)
+        if _fits(atlas, resolution):
+            fitting = (density, atlas)
+        else:
+            failing = density
+    return fitting[1]
 
 
 def main(argv):

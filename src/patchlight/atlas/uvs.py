@@ -166,7 +166,7 @@ def _uv_areas(uv, indices):
 # ----------------------------------------------------------------------------------------
 
 def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
-    if importlib.util.find_spec("xatlas") is None:
+    if not _xatlas_installed():
         raise _XatlasFailed("xatlas is not installed")
     timeout = CHILD_TIMEOUT_BASE_S + CHILD_TIMEOUT_PER_TRIANGLE_S * scene.n_triangles
     child = Path(__file__).with_name("_xatlas_child.py")
@@ -190,6 +190,10 @@ def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
                             uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
                             height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]),
                             charts=int(data["charts"]))
+
+
+def _xatlas_installed():
+    return importlib.util.find_spec("xatlas") is not None
 
 
 def _signal_name(number):

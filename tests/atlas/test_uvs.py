@@ -1,0 +1,146 @@
+"""Lightmap UVs: TEXCOORD_1 kept, xatlas in a child process, the planar fallback packer."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from atlas_meshes import cube_scene, quad_scene, sphere_scene
+from scipy.ndimage import distance_transform_cdt
+
+from patchlight.atlas import _kernels, uvs
+from patchlight.atlas.raster import rasterize
+from patchlight.atlas.uvs import check_bake_memory, ensure_lightmap_uvs, estimate_bake_bytes, uv_charts
+from patchlight.errors import PatchlightError
+
+
+def chart_masks(scene, width, height):
+    """(C, H, W) bool: the texels each uv1 chart touches, each chart rasterised on its own."""
+    tex = scene.uv1[scene.indices].astype(np.float64) * [width, height]
+    chart, count = uv_charts(scene.uv1, scene.indices)
+    return np.array([_kernels.rasterize_owners(tex, chart == c, width, height)[0] >= 0 for c in range(count)])
+
+
+def empty_texels_between_charts(masks):
+    """Fewest empty texels (chessboard distance - 1) between texels of two different charts."""
+    claims = masks.sum(axis=0)
+    gap = np.inf
+    for mask in masks:
+        others = claims - mask > 0
+        if others.any():
+            gap = min(gap, distance_transform_cdt(~mask, metric="chessboard")[others].min() - 1)
+    return gap
+
+
+def check_atlas(source, scene, width, height, padding):
+    """Same triangles in the same order, uv1 in [0, 1], charts apart by >= padding texels."""
+    np.testing.assert_array_equal(scene.positions[scene.indices], source.positions[source.indices])
+    np.testing.assert_array_equal(scene.normals[scene.indices], source.normals[source.indices])
+    assert scene.uv1.dtype == np.float32 and scene.uv1.min() >= 0 and scene.uv1.max() <= 1
+    masks = chart_masks(scene, width, height)
+    assert masks.sum(axis=0).max() == 1  # every texel claimed by one chart only
+    assert empty_texels_between_charts(masks) >= padding
+    patches, _ = rasterize(scene, width, height)
+    # every triangle owns a texel, or (when small) touches only covered texels
+    tex = scene.uv1[scene.indices].astype(np.float64) * [width, height]
+    for t in np.nonzero(np.bincount(patches.triangle, minlength=scene.n_triangles) == 0)[0]:
+        alone = _kernels.rasterize_owners(tex, np.arange(scene.n_triangles) == t, width, height)[0] >= 0
+        assert alone.any() and (patches.index[alone] >= 0).all()
+    return masks
+
+
+def test_texcoord1_is_kept_bit_exact():
+    scene = quad_scene(size=2.0)
+    scene.uv1 = scene.uv1 * np.float32(0.7) + np.float32(0.1)
+    before = scene.uv1.tobytes()
+    out, width, height, info = ensure_lightmap_uvs(scene, texels_per_unit=40)
+    assert out.uv1.tobytes() == before and out.positions is scene.positions
+    # W^2 * uv area (0.49) holds world area (4 m^2) at 40 texels/m: W = 40 * 2 / 0.7 -> 116
+    assert (width, height) == (116, 116)
+    assert info["uv_source"] == "TEXCOORD_1" and info["charts"] == 1 and info["warnings"] == []
+    assert ensure_lightmap_uvs(scene, texels_per_unit=1)[1] == 16  # clamped up to 16
+    assert ensure_lightmap_uvs(scene, texels_per_unit=40, resolution=64)[1:3] == (64, 64)
+
+
+@pytest.mark.parametrize("make", [cube_scene, sphere_scene])
+def test_xatlas_charts_do_not_overlap_and_keep_padding(make):
+    source = make()
+    scene, width, height, info = ensure_lightmap_uvs(source, texels_per_unit=24, padding=2)
+    assert info["uv_source"] == "xatlas" and info["warnings"] == []
+    assert width % 4 == 0 and height % 4 == 0
+    masks = check_atlas(source, scene, width, height, padding=2)
+    assert info["charts"] == len(masks)
+
+
+def test_xatlas_fills_a_requested_resolution():
+    source = sphere_scene()
+    scene, width, height, info = ensure_lightmap_uvs(source, resolution=64, padding=2)
+    assert (width, height) == (64, 64) and info["uv_source"] == "xatlas"
+    masks = check_atlas(source, scene, width, height, padding=2)
+    assert masks.any(axis=0).mean() > 0.3  # the charts spread over the page
+
+
+@pytest.mark.parametrize("make", [cube_scene, sphere_scene])
+@pytest.mark.parametrize("resolution", [None, 128])
+def test_fallback_packer_charts_do_not_overlap_and_keep_padding(make, resolution, monkeypatch):
+    monkeypatch.setattr(uvs, "_xatlas_installed", lambda: False)
+    source = make()
+    scene, width, height, info = ensure_lightmap_uvs(source, texels_per_unit=24, resolution=resolution, padding=2)
+    assert info["uv_source"] == "fallback"
+    assert info["warnings"] == ["xatlas is not installed; used the simple planar-chart packer"]
+    if resolution:
+        assert (width, height) == (resolution, resolution)
+    masks = check_atlas(source, scene, width, height, padding=2)
+    assert info["charts"] == len(masks) == (6 if make is cube_scene else 24 * 10 + 2 * 24)
+    if make is cube_scene and resolution is None:
+        # each face is a 24 x 24 texel square (plus the 0.02 texel safety margin: 25 cells)
+        for mask in masks:
+            ys, xs = np.nonzero(mask)
+            assert np.ptp(ys) + 1 == np.ptp(xs) + 1 == 25 and mask.sum() == 25 * 25
+
+
+def test_xatlas_crash_falls_back_with_one_warning(monkeypatch):
+    monkeypatch.setenv("PATCHLIGHT_XATLAS_CHILD_CRASH", "1")
+    source = cube_scene()
+    scene, width, height, info = ensure_lightmap_uvs(source, texels_per_unit=16)
+    assert info["uv_source"] == "fallback"
+    assert info["warnings"] == ["xatlas crashed (signal 11, SIGSEGV); used the simple planar-chart packer"]
+    check_atlas(source, scene, width, height, padding=2)
+
+
+def test_xatlas_timeout_falls_back(monkeypatch):
+    monkeypatch.setattr(uvs, "CHILD_TIMEOUT_BASE_S", 1e-3)
+    monkeypatch.setattr(uvs, "CHILD_TIMEOUT_PER_TRIANGLE_S", 0.0)
+    info = ensure_lightmap_uvs(cube_scene(), texels_per_unit=16)[3]
+    assert info["uv_source"] == "fallback" and len(info["warnings"]) == 1
+    assert info["warnings"][0].startswith("xatlas took longer than")
+
+
+def test_vertex_arrays_are_split_consistently():
+    source = cube_scene()
+    source.colors = np.random.default_rng(0).random((len(source.positions), 4)).astype(np.float32)
+    scene = ensure_lightmap_uvs(source, texels_per_unit=8)[0]
+    assert len(scene.positions) > len(source.positions)  # seams split the cube's 8 vertices
+    np.testing.assert_array_equal(scene.colors[scene.indices], source.colors[source.indices])
+    np.testing.assert_array_equal(scene.material_ids, source.material_ids)
+
+
+def test_absurd_sizes_and_bad_options_are_refused():
+    with pytest.raises(PatchlightError, match="lower --texels-per-unit"):
+        ensure_lightmap_uvs(cube_scene(size=100.0), texels_per_unit=1000)
+    with pytest.raises(PatchlightError, match="resolution"):
+        ensure_lightmap_uvs(cube_scene(), resolution=9000)
+    with pytest.raises(PatchlightError, match="texels per unit"):
+        ensure_lightmap_uvs(cube_scene(), texels_per_unit=-1)
+    with pytest.raises(PatchlightError, match="padding"):
+        ensure_lightmap_uvs(cube_scene(), padding=-1)
+    flat = quad_scene()
+    flat.uv1 = np.zeros_like(flat.uv1)
+    with pytest.raises(PatchlightError, match="TEXCOORD_1 covers no area"):
+        ensure_lightmap_uvs(flat)
+
+
+def test_bake_memory_estimate_and_refusal():
+    assert estimate_bake_bytes(2048, 1024) == 2 * estimate_bake_bytes(1024, 1024)
+    assert estimate_bake_bytes(64, 64, form_factor_entries=0) == 64 * 64 * uvs.BYTES_PER_TEXEL
+    check_bake_memory(64, 64, available_bytes=10**12)
+    with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about .* lower --resolution"):
+        check_bake_memory(4096, 4096, available_bytes=2**30)
