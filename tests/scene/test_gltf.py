@@ -276,9 +276,8 @@ def test_sparse_accessor_substitutes_values(tmp_path):
     b = Builder()
     base = b.accessor(np.zeros((3, 3), np.float32))
     acc = b.doc.accessors[base]
-    acc.sparse = gl.Sparse(count=2, indices=gl.AccessorSparseIndices(bufferView=b.view(np.array([1, 2], "<u2").tobytes()),
-                                                                     componentType=USHORT),
-                           values=gl.AccessorSparseValues(bufferView=b.view(TRIANGLE[1:].tobytes())))
+    which = gl.AccessorSparseIndices(bufferView=b.view(np.array([1, 2], "<u2").tobytes()), componentType=USHORT)
+    acc.sparse = gl.Sparse(count=2, indices=which, values=gl.AccessorSparseValues(bufferView=b.view(TRIANGLE[1:].tobytes())))
     primitive = gl.Primitive(attributes=gl.Attributes(POSITION=base))
     b.scene(b.node(mesh=b.mesh(primitive)))
     np.testing.assert_array_equal(load_gltf(b.glb(tmp_path / "sparse.glb")).positions, TRIANGLE)

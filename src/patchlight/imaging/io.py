@@ -24,7 +24,7 @@ from typing import Iterator
 
 import numpy as np
 import OpenEXR
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 from ..errors import PatchlightError
 from . import _kernels
@@ -151,6 +151,8 @@ def decode_image(data: bytes, where: str) -> np.ndarray:
         with Image.open(io.BytesIO(data)) as img:
             img.load()
             return _pixels(img)
+    except UnidentifiedImageError:
+        raise PatchlightError(f"{where}: not a readable PNG/JPEG image (unrecognised format)") from None
     except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
         raise PatchlightError(f"{where}: not a readable PNG/JPEG image ({exc})") from exc
 

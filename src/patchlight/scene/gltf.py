@@ -200,6 +200,18 @@ class _Importer:
     def fail(self, what: str) -> PatchlightError:
         return PatchlightError(f"{self.path}: {what}")
 
+    def vector(self, value, default, n: int, what: str) -> np.ndarray:
+        """A list of n finite numbers as float32 (`default` when absent, if there is one)."""
+        if value is None and default is not None:
+            value = default
+        try:
+            array = np.asarray(value, np.float64).reshape(n)
+        except (TypeError, ValueError):
+            array = np.full(n, np.nan)
+        if not np.all(np.isfinite(array)):
+            raise self.fail(f"{what}: want {n} finite numbers, got {value!r}"[:200])
+        return array.astype(np.float32)
+
     def item(self, items: list | None, index, what: str):
         """items[index], or a clear error for a missing or out-of-range index."""
         items = items or []
@@ -256,11 +268,14 @@ class _Importer:
             return np.asarray(node.matrix, np.float64).reshape(4, 4).T  # glTF stores columns
         matrix = np.eye(4)
         if node.scale is not None:
-            matrix = np.diag([*np.asarray(node.scale, np.float64).reshape(3), 1.0])
+            matrix = np.diag([*self.vector(node.scale, None, 3, f"node {index} scale").astype(np.float64), 1.0])
         if node.rotation is not None:
-            matrix = _quaternion_matrix(node.rotation, lambda: self.fail(f"node {index}: zero rotation quaternion")) @ matrix
+            rotation = self.vector(node.rotation, None, 4, f"node {index} rotation")
+            if not np.any(rotation):
+                raise self.fail(f"node {index}: rotation quaternion is zero")
+            matrix = _quaternion_matrix(rotation) @ matrix
         if node.translation is not None:
-            matrix[:3, 3] = np.asarray(node.translation, np.float64).reshape(3)
+            matrix[:3, 3] = self.vector(node.translation, None, 3, f"node {index} translation")
         return matrix
 
     # ------------------------------------------------------------------ buffers and accessors
@@ -373,27 +388,33 @@ class _Importer:
             if node.skin is not None or any(p.targets for p in mesh.primitives or []):
                 self.warnings.append(f"mesh {label}: skinning and morph targets ignored (rest pose used)")
             for number, primitive in enumerate(mesh.primitives or []):
-                mode = _TRIANGLES if primitive.mode is None else primitive.mode
-                if mode in _POINTS_AND_LINES:
-                    self.skipped += 1
-                    continue
-                if mode not in (_TRIANGLES, _STRIP, _FAN):
-                    raise self.fail(f"mesh {label} primitive {number}: unknown mode {mode}")
-                attributes = _attribute_map(primitive)
-                key = (world.tobytes(), tuple(sorted(attributes.items())))
-                if key not in blocks:
-                    blocks[key] = self._block(attributes, world, f"mesh {label} primitive {number}", label)
-                block = blocks[key]
-                triangles = self._triangles(primitive, mode, len(block.positions), f"mesh {label} primitive {number}")
-                material = primitive.material
-                if material is None:
-                    material, self.uses_default_material = default_material, True
-                else:
-                    self.item(self.doc.materials, material, "material")
-                block.triangles.append(triangles)
-                block.material_ids.append(np.full(len(triangles), material, np.int32))
+                self._add_primitive(blocks, primitive, world, f"mesh {label} primitive {number}", label,
+                                    default_material)
         self._warn_about_instances(uses, blocks.values())
         return list(blocks.values())
+
+    def _add_primitive(self, blocks: dict[tuple, _Block], primitive: gl.Primitive, world: np.ndarray,
+                       where: str, label: str, default_material: int) -> None:
+        """Append one primitive's triangles to the block of its accessors under `world` (made on first use)."""
+        mode = _TRIANGLES if primitive.mode is None else primitive.mode
+        if mode in _POINTS_AND_LINES:
+            self.skipped += 1
+            return
+        if mode not in (_TRIANGLES, _STRIP, _FAN):
+            raise self.fail(f"{where}: unknown mode {mode}")
+        attributes = _attribute_map(primitive)
+        key = (world.tobytes(), tuple(sorted(attributes.items())))
+        if key not in blocks:
+            blocks[key] = self._block(attributes, world, where, label)
+        block = blocks[key]
+        triangles = self._triangles(primitive, mode, len(block.positions), where)
+        material = primitive.material
+        if material is None:
+            material, self.uses_default_material = default_material, True
+        else:
+            self.item(self.doc.materials, material, "material")
+        block.triangles.append(triangles)
+        block.material_ids.append(np.full(len(triangles), material, np.int32))
 
     def _block(self, attributes: dict[str, int], world: np.ndarray, where: str, label: str) -> _Block:
         if "POSITION" not in attributes:
@@ -436,8 +457,9 @@ class _Importer:
         if primitive.indices is None:
             index = np.arange(vertex_count, dtype=np.int64)
         else:
-            if self.item(self.doc.accessors, primitive.indices, "accessor").componentType not in _INDEX_TYPES:
-                raise self.fail(f"{where}: indices must be unsigned integers")
+            accessor = self.item(self.doc.accessors, primitive.indices, "accessor")
+            if accessor.componentType not in _INDEX_TYPES or accessor.type != "SCALAR":
+                raise self.fail(f"{where}: indices must be SCALAR unsigned integers")
             index = self.accessor(primitive.indices)[:, 0].astype(np.int64)
             if index.size and index.max() >= vertex_count:
                 raise self.fail(f"{where}: index {int(index.max())} is past its {vertex_count} vertices")
@@ -460,18 +482,16 @@ class _Importer:
         """Concatenate the blocks into the scene arrays, dropping degenerate triangles."""
         if not blocks:
             raise self.fail(f"no triangles ({self.skipped} point/line primitives skipped)")
-        degenerate, offset, indices = 0, 0, []
+        degenerate, offset, indices, material_ids = 0, 0, [], []
         for block in blocks:
             triangles = np.concatenate(block.triangles)
             keep = ~_degenerate(block.positions, triangles)
             degenerate += int(np.count_nonzero(~keep))
-            triangles, ids = triangles[keep], np.concatenate(block.material_ids)[keep]
-            if block.mirrored:
-                triangles = triangles[:, [0, 2, 1]]
+            triangles = triangles[keep][:, [0, 2, 1]] if block.mirrored else triangles[keep]
             if block.normals is None:
                 block.normals = vertex_normals(block.positions, triangles)
             indices.append(triangles + offset)
-            block.material_ids = ids
+            material_ids.append(np.concatenate(block.material_ids)[keep])
             offset += len(block.positions)
         indices = np.concatenate(indices).astype(np.int32)
         if len(indices) == 0:
@@ -481,7 +501,7 @@ class _Importer:
                       normals=np.concatenate([b.normals for b in blocks]),
                       uv0=np.concatenate([b.uv0 for b in blocks]),
                       indices=indices,
-                      material_ids=np.concatenate([b.material_ids for b in blocks]).astype(np.int32),
+                      material_ids=np.concatenate(material_ids).astype(np.int32),
                       materials=materials,
                       uv1=self._all_or_none(blocks, "uv1", "TEXCOORD_1"),
                       tangents=self._all_or_none(blocks, "tangents", "TANGENT"),
@@ -508,7 +528,7 @@ class _Importer:
         where = f"material {name!r}"
         pbr = source.pbrMetallicRoughness or gl.PbrMetallicRoughness()
         material = Material(name=name, double_sided=bool(source.doubleSided))
-        material.base_color = _vector(pbr.baseColorFactor, [1.0, 1.0, 1.0, 1.0], 4, self.fail(f"{where}: bad baseColorFactor"))
+        material.base_color = self.vector(pbr.baseColorFactor, [1.0, 1.0, 1.0, 1.0], 4, f"{where} baseColorFactor")
         base = self._texture(pbr.baseColorTexture, f"{where} baseColorTexture")
         if base is not None:
             rgba = _rgba(base)
@@ -516,7 +536,7 @@ class _Importer:
             material.base_color_texture = rgba
         strength = float(((source.extensions or {}).get("KHR_materials_emissive_strength") or {})
                          .get("emissiveStrength", 1.0))
-        emissive = _vector(source.emissiveFactor, [0.0, 0.0, 0.0], 3, self.fail(f"{where}: bad emissiveFactor"))
+        emissive = self.vector(source.emissiveFactor, [0.0, 0.0, 0.0], 3, f"{where} emissiveFactor")
         material.emissive = (emissive * np.float32(strength)).astype(np.float32)
         emission = self._texture(source.emissiveTexture, f"{where} emissiveTexture")
         if emission is not None:
@@ -550,8 +570,7 @@ class _Importer:
             if image.bufferView is not None:
                 data, label = bytes(self.view_bytes(image.bufferView)), f"image {index} (bufferView {image.bufferView})"
             elif image.uri:
-                label = f"image {index} ({image.uri[:40]!r})"
-                data = self._resource(image.uri, label)
+                data, label = self._resource(image.uri, f"image {index}"), f"image {index} ({image.uri[:40]!r})"
             else:
                 raise self.fail(f"image {index} has neither a uri nor a bufferView")
             self._images[index] = decode_image(data, f"{self.path}: {label}")
@@ -588,7 +607,7 @@ class _Importer:
             raise self.fail(f"{where}: extras need falloff 'inverse-square' | 'range' and 0 <= angle < pi")
         if not np.linalg.norm(direction) > 0:
             raise self.fail(f"{where}: its node's transform collapses the light direction")
-        return Light(kind=kind, color=_vector(spec.get("color"), [1.0, 1.0, 1.0], 3, self.fail(f"{where}: bad color")),
+        return Light(kind=kind, color=self.vector(spec.get("color"), [1.0, 1.0, 1.0], 3, f"{where} color"),
                      intensity=intensity / LUMENS_PER_WATT,
                      position=world[:3, 3].astype(np.float32),
                      direction=(direction / np.linalg.norm(direction)).astype(np.float32),
@@ -614,7 +633,7 @@ class _Importer:
         (kind, value), = spec.items()
 
         def radiance(rgb, what):
-            color = _vector(rgb, None, 3, self.fail(f"sky {what}: want three non-negative numbers"))
+            color = self.vector(rgb, None, 3, f"sky {what}")
             if not np.all(color >= 0):
                 raise self.fail(f"sky {what}: want three non-negative numbers")
             return color
@@ -636,13 +655,9 @@ def _attribute_map(primitive: gl.Primitive) -> dict[str, int]:
     return {name: index for name, index in items.items() if index is not None}
 
 
-def _quaternion_matrix(q, zero_error) -> np.ndarray:
-    """(4, 4) rotation from a glTF quaternion [x, y, z, w] (normalised here)."""
-    x, y, z, w = np.asarray(q, np.float64).reshape(4)
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    if norm == 0:
-        raise zero_error()
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
+    """(4, 4) rotation from a non-zero glTF quaternion [x, y, z, w] (normalised here)."""
+    x, y, z, w = np.asarray(q, np.float64) / np.linalg.norm(np.asarray(q, np.float64))
     matrix = np.eye(4)
     matrix[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                       [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -673,21 +688,6 @@ def _fill_colors(blocks: list[_Block]) -> np.ndarray | None:
         return None
     return np.concatenate([b.colors if b.colors is not None else np.ones((len(b.positions), 4), np.float32)
                            for b in blocks])
-
-
-def _vector(value, default, n: int, error: PatchlightError) -> np.ndarray:
-    """A list of n finite numbers as float32 (default when None)."""
-    if value is None:
-        if default is None:
-            raise error
-        value = default
-    try:
-        array = np.asarray(value, np.float64).reshape(n)
-    except (TypeError, ValueError):
-        raise error from None
-    if not np.all(np.isfinite(array)):
-        raise error
-    return array.astype(np.float32)
 
 
 def _rgba(image: np.ndarray) -> np.ndarray:
@@ -808,7 +808,8 @@ class _GlbWriter:
         if material.emissive_texture is not None:
             out.emissiveTexture = gl.TextureInfo(index=self.texture(_srgb_png(material.emissive_texture)))
         if material.normal_texture is not None:
-            out.normalTexture = gl.NormalMaterialTexture(index=self.texture(encode_png(_to_uint8(material.normal_texture))))
+            raw = encode_png(_to_uint8(material.normal_texture))  # normal maps are linear data
+            out.normalTexture = gl.NormalMaterialTexture(index=self.texture(raw))
         return out
 
     def lights(self, lights: list[Light]) -> list[int]:
