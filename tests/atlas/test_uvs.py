@@ -16,7 +16,7 @@ def chart_masks(scene, width, height):
     """(C, H, W) bool: the texels each uv1 chart touches, each chart rasterised on its own."""
     tex = scene.uv1[scene.indices].astype(np.float64) * [width, height]
     chart, count = uv_charts(scene.uv1, scene.indices)
-    return np.array([_kernels.rasterize_owners(tex, chart == c, width, height)[0] >= 0 for c in range(count)])
+    return np.array([_kernels.rasterize_owners(tex, chart == c, width, height) >= 0 for c in range(count)])
 
 
 def empty_texels_between_charts(masks):
@@ -42,7 +42,7 @@ def check_atlas(source, scene, width, height, padding):
     # every triangle owns a texel, or (when small) touches only covered texels
     tex = scene.uv1[scene.indices].astype(np.float64) * [width, height]
     for t in np.nonzero(np.bincount(patches.triangle, minlength=scene.n_triangles) == 0)[0]:
-        alone = _kernels.rasterize_owners(tex, np.arange(scene.n_triangles) == t, width, height)[0] >= 0
+        alone = _kernels.rasterize_owners(tex, np.arange(scene.n_triangles) == t, width, height) >= 0
         assert alone.any() and (patches.index[alone] >= 0).all()
     return masks
 

@@ -72,11 +72,10 @@ def rasterize_owners(tex, live, width, height):
     intersect (for a triangle of zero UV area, a segment or point: when it meets the closed
     square).  Among the triangles touching a texel the owner is the first one covering the
     texel centre, else the one overlapping it most; zero-area triangles win only texels nobody
-    else touches.  Returns owner (H, W) i32 (-1 = uncovered) and best (H, W) f64 score
-    (2 = covers the centre, else overlap area in texel^2, 0 = degenerate touch, -1 = none).
+    else touches.  Returns owner (H, W) i32, -1 where no triangle touches the texel.
     """
     owner = np.full((height, width), -1, np.int32)
-    best = np.full((height, width), -1.0)
+    best = np.full((height, width), -1.0)  # 2 = covers the centre, else overlap area, 0 = zero-area touch
     nx = np.empty(3)
     ny = np.empty(3)
     d = np.empty(3)
@@ -131,7 +130,7 @@ def rasterize_owners(tex, live, width, height):
                     continue
                 score = CENTRE_SCORE if centre else _clipped_area(x, y, nx, ny, d, work)
                 _claim(owner, best, x, y, t, score)
-    return owner, best
+    return owner
 
 
 @njit(cache=True)
@@ -223,8 +222,8 @@ def _wrap(i, n):
 
 
 @njit(cache=True)
-def _fetch_bilinear(data, offset, width, height, u, v, out):
-    """Add the bilinear RGB sample at (u, v) (repeat wrap, v = 0 top row) to out (3,)."""
+def _fetch_bilinear(data, offset, width, height, u, v):
+    """Bilinear RGB sample (r, g, b) at (u, v): repeat wrap, v = 0 is the top row."""
     if not (np.isfinite(u) and np.isfinite(v)):
         u, v = 0.0, 0.0
     fx = u * width - 0.5
@@ -239,10 +238,30 @@ def _fetch_bilinear(data, offset, width, height, u, v, out):
     i01 = offset + y0 * width + x1
     i10 = offset + y1 * width + x0
     i11 = offset + y1 * width + x1
-    for c in range(3):
-        top = data[i00, c] * (1.0 - wx) + data[i01, c] * wx
-        bottom = data[i10, c] * (1.0 - wx) + data[i11, c] * wx
-        out[c] += top * (1.0 - wy) + bottom * wy
+    w00, w01 = (1.0 - wx) * (1.0 - wy), wx * (1.0 - wy)
+    w10, w11 = (1.0 - wx) * wy, wx * wy
+    r = w00 * data[i00, 0] + w01 * data[i01, 0] + w10 * data[i10, 0] + w11 * data[i11, 0]
+    g = w00 * data[i00, 1] + w01 * data[i01, 1] + w10 * data[i10, 1] + w11 * data[i11, 1]
+    b = w00 * data[i00, 2] + w01 * data[i01, 2] + w10 * data[i10, 2] + w11 * data[i11, 2]
+    return r, g, b
+
+
+@njit(cache=True)
+def _footprint_mean(data, offset, width, height, texel_x, texel_y, samples, ax, ay, bx, by, cx, cy,
+                    u0, v0, u1, v1, u2, v2):
+    """Mean RGB of a texture over samples x samples points of a texel, each mapped to uv0
+    through the triangle's affine uv1 -> uv0 map (corner uv0s (u0, v0) .. (u2, v2))."""
+    r, g, b = 0.0, 0.0, 0.0
+    for sy in range(samples):
+        for sx in range(samples):
+            px = texel_x + (sx + 0.5) / samples
+            py = texel_y + (sy + 0.5) / samples
+            s0, s1, s2 = affine_barycentrics(px, py, ax, ay, bx, by, cx, cy)
+            dr, dg, db = _fetch_bilinear(data, offset, width, height, s0 * u0 + s1 * u1 + s2 * u2,
+                                         s0 * v0 + s1 * v1 + s2 * v2)
+            r, g, b = r + dr, g + dg, b + db
+    count = samples * samples
+    return r / count, g / count, b / count
 
 
 @njit(cache=True, parallel=True)
@@ -276,40 +295,35 @@ def texel_attributes(texel_y, texel_x, triangle, tex, positions, normals, uv0, c
         cx, cy = tex[t, 2, 0], tex[t, 2, 1]
         i0, i1, i2 = indices[t, 0], indices[t, 1], indices[t, 2]
         l0, l1, l2 = clamped_barycentrics(texel_x[i] + 0.5, texel_y[i] + 0.5, ax, ay, bx, by, cx, cy)
-        nrm = np.zeros(3)
         for c in range(3):
             position[i, c] = l0 * positions[i0, c] + l1 * positions[i1, c] + l2 * positions[i2, c]
-            nrm[c] = l0 * normals[i0, c] + l1 * normals[i1, c] + l2 * normals[i2, c]
-        length = np.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
-        facing = nrm[0] * face_normal[t, 0] + nrm[1] * face_normal[t, 1] + nrm[2] * face_normal[t, 2]
-        for c in range(3):
-            normal[i, c] = nrm[c] / length if (length > 1e-12 and facing > 0.0) else face_normal[t, c]
+        nx = l0 * normals[i0, 0] + l1 * normals[i1, 0] + l2 * normals[i2, 0]
+        ny = l0 * normals[i0, 1] + l1 * normals[i1, 1] + l2 * normals[i2, 1]
+        nz = l0 * normals[i0, 2] + l1 * normals[i1, 2] + l2 * normals[i2, 2]
+        length = np.sqrt(nx * nx + ny * ny + nz * nz)
+        if length > 1e-12 and nx * face_normal[t, 0] + ny * face_normal[t, 1] + nz * face_normal[t, 2] > 0.0:
+            normal[i, 0], normal[i, 1], normal[i, 2] = nx / length, ny / length, nz / length
+        else:
+            normal[i, 0], normal[i, 1], normal[i, 2] = face_normal[t, 0], face_normal[t, 1], face_normal[t, 2]
         # texture averages over the texel footprint, through the owner's uv1 -> uv0 affine map
         m = material[t]
-        base_id, emissive_id = base_texture[m], emissive_texture[m]
-        base = np.zeros(3)
-        glow = np.zeros(3)
-        if base_id >= 0 or emissive_id >= 0:
-            for sy in range(samples):
-                for sx in range(samples):
-                    px = texel_x[i] + (sx + 0.5) / samples
-                    py = texel_y[i] + (sy + 0.5) / samples
-                    s0, s1, s2 = affine_barycentrics(px, py, ax, ay, bx, by, cx, cy)
-                    u = s0 * uv0[i0, 0] + s1 * uv0[i1, 0] + s2 * uv0[i2, 0]
-                    v = s0 * uv0[i0, 1] + s1 * uv0[i1, 1] + s2 * uv0[i2, 1]
-                    if base_id >= 0:
-                        _fetch_bilinear(tex_data, tex_offset[base_id], tex_width[base_id],
-                                        tex_height[base_id], u, v, base)
-                    if emissive_id >= 0:
-                        _fetch_bilinear(tex_data, tex_offset[emissive_id], tex_width[emissive_id],
-                                        tex_height[emissive_id], u, v, glow)
-        count = samples * samples
+        base = (1.0, 1.0, 1.0)
+        glow = (1.0, 1.0, 1.0)
+        for which in range(2):
+            tid = base_texture[m] if which == 0 else emissive_texture[m]
+            if tid < 0:
+                continue
+            mean = _footprint_mean(tex_data, tex_offset[tid], tex_width[tid], tex_height[tid], texel_x[i],
+                                   texel_y[i], samples, ax, ay, bx, by, cx, cy, uv0[i0, 0], uv0[i0, 1],
+                                   uv0[i1, 0], uv0[i1, 1], uv0[i2, 0], uv0[i2, 1])
+            if which == 0:
+                base = mean
+            else:
+                glow = mean
         for c in range(3):
-            b = base[c] / count if base_id >= 0 else 1.0
-            g = glow[c] / count if emissive_id >= 0 else 1.0
             tint = l0 * colors[i0, c] + l1 * colors[i1, c] + l2 * colors[i2, c] if has_colors else 1.0
-            rho[i, c] = base_factor[m, c] * b * tint
-            emission[i, c] = emissive_factor[m, c] * g
+            rho[i, c] = base_factor[m, c] * base[c] * tint
+            emission[i, c] = emissive_factor[m, c] * glow[c]
     return position, normal, rho, emission
 
 

@@ -40,7 +40,7 @@ def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarra
     width, height = int(width), int(height)
     tex = scene.uv1[scene.indices].astype(np.float64) * np.array([width, height], np.float64)
     normal, area = face_normals(scene.positions, scene.indices)
-    owner, _ = _kernels.rasterize_owners(tex, area > 0, width, height)
+    owner = _kernels.rasterize_owners(tex, area > 0, width, height)
     texel_y, texel_x = np.nonzero(owner >= 0)
     triangle = owner[texel_y, texel_x]
     chart_per_triangle, _ = uv_charts(scene.uv1, scene.indices)

@@ -72,7 +72,8 @@ def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, reso
     Returns (scene, width, height, info).  A scene with uv1 comes back unchanged; otherwise
     a new Scene whose vertices are split along chart seams (every per-vertex array remapped)
     with uv1 set.  info: uv_source ("TEXCOORD_1" | "xatlas" | "fallback"), charts, width,
-    height, texels_per_unit (achieved mean texels per metre), warnings (list of str).
+    height, texels_per_unit (the density the charts were packed at; for TEXCOORD_1 the mean
+    over the surface), warnings (list of str, at most one line about the packer).
     """
     _check_options(texels_per_unit, resolution, padding)
     if scene.uv1 is not None:
@@ -121,6 +122,8 @@ def check_bake_memory(width: int, height: int, available_bytes: int | None = Non
 def uv_charts(uv1: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, int]:
     """Chart id (T,) i32 of each triangle and the chart count: connected components of
     triangles sharing a UV edge (both end points with bit-identical uv1)."""
+    if len(indices) == 0:
+        return np.zeros(0, np.int32), 0
     corner_uv = np.ascontiguousarray(uv1[indices].reshape(-1, 2), np.float32) + np.float32(0.0)  # -0 -> +0
     keys = np.unique(corner_uv.view(np.int64).ravel(), return_inverse=True)[1].reshape(-1, 3)
     return _shared_edge_components(keys)
