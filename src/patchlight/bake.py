@@ -25,6 +25,7 @@ from .scene.model import Scene
 
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
 DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
+REFINE_PASSES = 100         # the sampler decides on a converged solution, whatever --passes says
 
 
 @dataclass
@@ -73,7 +74,8 @@ def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, sett
         _compute(ff, grid, status, advance)
         B = None
         for phase in phases:
-            solution = _solve(ff, patches, direct, status, phases, settings, B)
+            solution = solve(ff, direct, patches.rho, patches.emission, status, phases,
+                             REFINE_PASSES, settings.tolerance, B)
             B, G = solution.excident, solution.gathered
             for step in phase:
                 _compute(ff, adaptive.decide(step, status, G, settings.accuracy), status, advance)
@@ -86,20 +88,16 @@ def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> 
     status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
 
 
-def _solve(ff, patches, direct, status, phases, settings, B0=None, on_pass=None) -> Solution:
-    return solve(ff, direct, patches.rho, patches.emission, status, phases,
-                 settings.passes, settings.tolerance, B0, on_pass)
-
-
 def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) -> np.ndarray:
-    """(H, W, 3) lightmap: texels inside geometry filled from valid neighbours, then grown
-    past chart borders by DILATE_TEXELS rings."""
+    """(H, W, 3) lightmap: texels inside geometry next to valid ones filled from them (up to
+    DILATE_TEXELS rings deep, so bilinear filtering at a joint reads no darkness; deeper ones
+    stay black), then grown past chart borders by DILATE_TEXELS rings."""
     from .imaging.dilate import dilate
 
     image = patches.to_image(incident.astype(np.float32))
     covered = patches.index >= 0
     valid = covered & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
-    image, valid = dilate(image, valid, texels=max(patches.width, patches.height), allowed=covered)
+    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=covered)
     image[covered & ~valid] = 0.0
     image, _ = dilate(image, covered, texels=DILATE_TEXELS)
     return image
@@ -108,7 +106,7 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) ->
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
     from .atlas.raster import rasterize
-    from .atlas.uvs import ensure_lightmap_uvs, estimate_bake_bytes
+    from .atlas.uvs import check_bake_memory, ensure_lightmap_uvs
 
     settings = settings or BakeSettings()
     _check_scene(scene)
@@ -118,7 +116,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding)
-        estimate_bake_bytes(width, height)
+        check_bake_memory(width, height, form_factor_entries=0)  # F falls back to re-gathering
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
@@ -146,7 +144,8 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                 if settings.save_passes:
                     pass_images.append(fill_lightmap(patches, incident, status))
 
-            solution = _solve(ff, patches, direct, status, phases, settings, on_pass=on_pass)
+            solution = solve(ff, direct, patches.rho, patches.emission, status, phases,
+                             settings.passes, settings.tolerance, on_pass=on_pass)
         with progress.stage("lightmap"):
             lightmap = fill_lightmap(patches, solution.incident, status)
     counts = np.bincount(status, minlength=4)

@@ -77,7 +77,7 @@ def gathered_light(ff: FormFactors, B: np.ndarray, status: np.ndarray, phases) -
 def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray,
           status: np.ndarray, phases, passes: int, tolerance: float, B0: np.ndarray | None = None,
           on_pass=None) -> Solution:
-    """Run passes until the largest change of I, relative to the largest I, is below
+    """Run passes until the largest relative change of I (`relative_change`) is below
     `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass."""
     inside = status == adaptive.INSIDE
     B = emission.copy() if B0 is None else B0
@@ -88,7 +88,7 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
         I = direct + G
         I[inside] = 0.0
         B = rho * I + emission
-        change = 1.0 if previous is None else float(np.abs(I - previous).max() / max(I.max(), 1e-30))
+        change = 1.0 if previous is None else relative_change(I, previous)
         changes.append(change)
         if on_pass is not None:
             on_pass(k, change, I)
@@ -96,6 +96,13 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
             break
         previous = I
     return Solution(I, B, G, changes)
+
+
+def relative_change(current: np.ndarray, previous: np.ndarray) -> float:
+    """Largest per-texel change |I_k - I_k-1| / I_k, over texels brighter than a hundredth of
+    the mean (so that nearly black texels' noise does not decide)."""
+    floor = 1e-2 * float(current.mean()) + 1e-30
+    return float((np.abs(current - previous) / np.maximum(current, floor)).max())
 
 
 def estimate_matrix_bytes(n_rows: int, rays_per_patch: int) -> int:

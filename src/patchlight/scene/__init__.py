@@ -4,11 +4,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import PatchlightError
-from .builtin import BUILTIN_SCENES, builtin_scene
+from .builtin import BUILTIN_SCENES, SceneBuilder, builtin_scene
 from .model import Light, Material, Scene
 from .sky import Sky
 
-__all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "Sky", "load_scene"]
+__all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "SceneBuilder", "Sky", "load_scene"]
 
 
 def load_scene(spec: str | Path) -> Scene:

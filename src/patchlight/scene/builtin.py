@@ -17,8 +17,9 @@ from .sky import Sky
 BUILTIN_SCENES = ("room", "cornell")
 
 
-class _Builder:
-    """Collects oriented quads per material and returns one Scene."""
+class SceneBuilder:
+    """Builds a Scene from oriented quads and boxes: the built-in scenes use it, and so can
+    scripts and tests that make scenes procedurally."""
 
     def __init__(self):
         self.materials: list[Material] = []
@@ -59,6 +60,7 @@ class _Builder:
                 self.quad(corners, material, facing)
 
     def scene(self, name: str, lights=(), sky=None) -> Scene:
+        """The Scene of every quad added so far (flat normals, planar uv0 in metres)."""
         tris = np.stack(self.positions)  # (T, 3, 3)
         positions = tris.reshape(-1, 3)
         indices = np.arange(len(positions), dtype=np.int32).reshape(-1, 3)
@@ -79,7 +81,7 @@ def _planar_uvs(positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
 
 def room() -> Scene:
     """The article's room: three windows in a thick wall, two pillars, alcoves; sun and sky."""
-    b = _Builder()
+    b = SceneBuilder()
     wall = b.material("plaster", (0.70, 0.68, 0.64))
     floor = b.material("floor", (0.45, 0.32, 0.22))
     pillar = b.material("stone", (0.60, 0.60, 0.62))
@@ -130,7 +132,7 @@ _CORNELL_BLOCKS = {
 
 def cornell() -> Scene:
     """The Cornell box in metres, lit only by its emissive ceiling light."""
-    b = _Builder()
+    b = SceneBuilder()
     white = b.material("white", (0.725, 0.71, 0.68))
     red = b.material("red", (0.63, 0.065, 0.05))
     green = b.material("green", (0.14, 0.45, 0.091))

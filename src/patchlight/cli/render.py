@@ -1,0 +1,134 @@
+"""`patchlight render SCENE_OR_BAKE_DIR --model M -o out.png|out.exr`: one picture of a scene
+with a runtime lighting model, on the CPU (Embree camera rays, then the NumPy reference of
+the GLSL the viewer runs). .exr holds linear radiance; .png the exposed sRGB picture."""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from ..errors import PatchlightError
+from ..shading.lights import FALLOFFS
+from ..shading.models import MODELS
+from .bake import parse_rgb
+
+MAX_SIZE = 16384
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'WxH' -> (width, height), each in 1..MAX_SIZE."""
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WxH, e.g. 1024x768, got {text!r}") from None
+    if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
+        raise argparse.ArgumentTypeError(f"{text}: width and height must lie in 1..{MAX_SIZE}")
+    return width, height
+
+
+def add_shading_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by `render` and `view`: lights, surroundings and the model options."""
+    p.add_argument("--light", action="append", metavar="SPEC",
+                   help="replace the scene's lights (repeatable): dir:DX,DY,DZ:R,G,B:E | "
+                        "point:X,Y,Z:R,G,B:J[:RANGE] | spot:X,Y,Z:DX,DY,DZ:R,G,B:J:OUTER[:INNER[:RANGE]] "
+                        "(E in W/m^2, J in W/sr, angles in degrees)")
+    p.add_argument("--falloff", choices=FALLOFFS, default="inverse-square",
+                   help="point/spot falloff for lights that name none (default %(default)s)")
+    sky = p.add_mutually_exclusive_group()
+    sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="replace the scene's sky: uniform radiance")
+    sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
+                     help="replace the scene's sky: radiance at the zenith, the horizon and below it")
+    p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
+                   help="ambient incident light (default: from the sky, else 0.05 grey)")
+    p.add_argument("--reflectivity", type=float, metavar="K", help="envmap reflectivity of every material (0..1)")
+    p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
+    p.add_argument("--normal-map", action="store_true", help="tangent-space normal maps, colour alpha as gloss")
+    p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("render", help="render a picture with a runtime lighting model (CPU)", description=__doc__)
+    p.add_argument("target", metavar="SCENE_OR_BAKE_DIR",
+                   help="a .glb/.gltf file, a built-in scene (room, cornell) or a bake directory")
+    p.add_argument("--model", choices=MODELS, default="lambert", help="lighting model (default %(default)s)")
+    p.add_argument("--camera", nargs=3, metavar=("EX,EY,EZ", "TX,TY,TZ", "FOV"),
+                   help="eye, target (metres) and vertical field of view (degrees); +Y up")
+    p.add_argument("--size", type=parse_size, default=(1024, 1024), metavar="WxH", help="default 1024x1024")
+    p.add_argument("--exposure", default="auto", metavar="K",
+                   help="PNG display value 1 - exp(-K radiance), or auto (default)")
+    p.add_argument("--envmap-from", metavar="X,Y,Z",
+                   help="envmap model: render the cube map from this point (default: from the sky)")
+    add_shading_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png|OUT.exr")
+    p.set_defaults(func=run)
+
+
+def load_target_and_settings(args, model: str):
+    """The target the arguments name and its ShadingSettings (exposure left at 1)."""
+    from ..render.settings import target_settings
+    from ..render.target import load_target
+    from ..scene.sky import Sky
+    from ..shading.lights import parse_light_spec
+
+    target = load_target(args.target)
+    if args.sky is not None:
+        target.scene.sky = Sky.uniform(args.sky)
+    elif args.sky_gradient is not None:
+        target.scene.sky = Sky.gradient(*args.sky_gradient)
+    lights = None if args.light is None else [parse_light_spec(spec) for spec in args.light]
+    if args.normal_map and all(m.normal_texture is None for m in target.scene.materials):
+        raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
+    settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
+                               per_vertex=args.per_vertex, normal_map=args.normal_map,
+                               lightmap_specular=args.specular, reflectivity=args.reflectivity)
+    return target, settings
+
+
+def parse_point(text: str, where: str):
+    import numpy as np
+
+    try:
+        point = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        point = np.zeros(0)
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise PatchlightError(f"{where} {text}: expected X,Y,Z")
+    return point
+
+
+def parse_exposure(text: str) -> float | None:
+    """None for auto, else a positive float."""
+    if text == "auto":
+        return None
+    try:
+        k = float(text)
+    except ValueError:
+        k = float("nan")
+    if not (k > 0 and k < float("inf")):
+        raise PatchlightError(f"--exposure {text}: expected a positive number or auto")
+    return k
+
+
+def run(args) -> int:
+    from ..imaging.exposure import auto_exposure
+    from ..render.camera import parse_camera
+    from ..render.output import check_output, write_render
+    from ..render.renderer import Renderer
+
+    started = time.perf_counter()
+    output = check_output(args.output)
+    exposure = parse_exposure(args.exposure)
+    envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
+    target, settings = load_target_and_settings(args, args.model)
+    renderer = Renderer(target)
+    camera = parse_camera(args.camera) if args.camera else renderer.default_camera()
+    renderer.require_inputs(settings)
+    env = renderer.environment(settings, envmap_from) if settings.model == "envmap" else None
+    width, height = args.size
+    result = renderer.render(settings, camera, width, height, env)
+    if exposure is None:
+        exposure = auto_exposure(result.radiance[result.covered])
+    write_render(output, result.radiance, exposure)
+    print(f"wrote {output} ({width}x{height}, {settings.model}, exposure {exposure:.4g}) "
+          f"in {time.perf_counter() - started:.2f} s")
+    return 0

@@ -1,0 +1,164 @@
+"""`patchlight bake` end to end: outputs, round trips, orientation, and every bad input
+giving one line, exit status 2 and an untouched output directory."""
+import json
+import struct
+
+import numpy as np
+import pytest
+
+from patchlight.cli.main import main
+from patchlight.imaging.io import read_exr
+from patchlight.scene import Light, SceneBuilder
+from patchlight.scene.gltf import load_gltf, save_baked_glb
+
+
+def lit_quad(uv1=None, light=None):
+    """A 2 x 2 m floor at y = 0 with lightmap UVs uv1 (4 corners, optional) and a light."""
+    b = SceneBuilder()
+    m = b.material("floor", (0.5, 0.5, 0.5))
+    b.quad([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], m, (0, 1, 0))
+    light = light or Light("point", np.ones(3, np.float32), 4.0, position=np.array([0.8, 0.3, 0.8], np.float32))
+    scene = b.scene("quad", lights=[light])
+    if uv1 is not None:
+        # positions are two triangles (0,1,2) (0,2,3) of the oriented quad: map UVs by position
+        corner_uv = {(-1, -1): uv1[0], (1, -1): uv1[1], (1, 1): uv1[2], (-1, 1): uv1[3]}
+        scene.uv1 = np.array([corner_uv[(int(round(p[0])), int(round(p[2])))] for p in scene.positions], np.float32)
+    return scene
+
+
+def run(capsys, *argv):
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_bake_writes_every_output_and_a_json_summary(tmp_path, capsys):
+    out = tmp_path / "out"
+    status, stdout, _ = run(capsys, "bake", "cornell", "-o", str(out), "--resolution", "32", "--json")
+    assert status == 0
+    summary = json.loads(stdout)
+    for name in ("lightmap.exr", "lightmap.png", "scene.glb", "bake.json", "adaptive.png"):
+        assert (out / name).stat().st_size > 0
+    assert summary["computed_patches"] + summary["interpolated_patches"] + summary["inside_geometry_patches"] == summary["patches"]
+    for key in ("rays_traced", "rays_per_second", "form_factor_matrix", "pass_changes", "seconds_per_stage"):
+        assert key in summary
+    assert not list(out.glob("*.tmp*")) and not list(out.glob(".*"))
+    lightmap = read_exr(out / "lightmap.exr")
+    assert lightmap.shape == (32, 32, 3) and lightmap.max() > 0
+
+
+def test_texcoord1_survives_the_bake_bit_exact(tmp_path, capsys):
+    uv1 = np.array([[0.1, 0.2], [0.9, 0.2], [0.9, 0.8], [0.1, 0.8]], np.float32) + np.float32(1e-7)
+    save_baked_glb(lit_quad(uv1), tmp_path / "in.glb")
+    before = load_gltf(tmp_path / "in.glb").uv1
+    status, _, _ = run(capsys, "bake", str(tmp_path / "in.glb"), "-o", str(tmp_path / "out"), "--resolution", "32", "--quiet")
+    assert status == 0
+    after = load_gltf(tmp_path / "out" / "scene.glb").uv1
+    assert after.tobytes() == before.tobytes()
+
+
+def test_lightmap_orientation_puts_the_lit_texel_where_the_uvs_say(tmp_path, capsys):
+    # uv1 = ((x + 1) / 2, (z + 1) / 2): the lamp over (x, z) = (0.8, 0.8) is near uv (0.9, 0.9),
+    # which is row 0.9 H (v = 0 is the top row), column 0.9 W.
+    uv1 = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    save_baked_glb(lit_quad(uv1), tmp_path / "in.glb")
+    status, _, _ = run(capsys, "bake", str(tmp_path / "in.glb"), "-o", str(tmp_path / "out"), "--resolution", "40", "--quiet")
+    assert status == 0
+    lightmap = read_exr(tmp_path / "out" / "lightmap.exr")[..., 0]
+    row, col = np.unravel_index(np.argmax(lightmap), lightmap.shape)
+    assert abs(row - 36) <= 1 and abs(col - 36) <= 1
+
+
+def _write(path, data: bytes):
+    path.write_bytes(data)
+    return path
+
+
+def _bad_inputs(tmp_path):
+    save_baked_glb(lit_quad(), tmp_path / "good.glb")
+    good = (tmp_path / "good.glb").read_bytes()
+    json_len = struct.unpack_from("<I", good, 12)[0]
+    doc = json.loads(good[20:20 + json_len])
+    broken = dict(doc, accessors=[dict(a, bufferView=99) for a in doc["accessors"]])
+    dark = lit_quad()
+    dark.lights = []
+    points = dict(doc, meshes=[{"primitives": [dict(p, mode=0) for p in m["primitives"]]} for m in doc["meshes"]])
+    return {
+        "missing": (tmp_path / "nope.glb", "not found"),
+        "not gltf": (_write(tmp_path / "noise.glb", bytes(range(256)) * 4), "glTF"),
+        "truncated": (_write(tmp_path / "cut.glb", good[: len(good) // 2]), "truncated"),
+        "broken accessor": (_write(tmp_path / "broken.gltf", json.dumps(broken).encode()), "bufferView"),
+        "nan": (_write(tmp_path / "nan.glb", _with_nan_position(good, doc, json_len)), "NaN"),
+        "no light": (_save(dark, tmp_path / "dark.glb"), "nothing lights"),
+        "only points": (_write(tmp_path / "points.gltf", _embed(points, good, json_len)), "no triangle"),
+    }
+
+
+def _with_nan_position(glb, doc, json_len):
+    """The .glb with its first vertex's x replaced by NaN in the BIN chunk."""
+    accessor = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    view = doc["bufferViews"][accessor["bufferView"]]
+    at = 20 + json_len + 8 + view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+    data = bytearray(glb)
+    data[at:at + 4] = struct.pack("<f", float("nan"))
+    return bytes(data)
+
+
+def _save(scene, path):
+    save_baked_glb(scene, path)
+    return path
+
+
+def _embed(doc, glb, json_len):
+    """A .gltf whose single buffer is the .glb's BIN chunk as a data URI."""
+    import base64
+
+    bin_start = 20 + json_len + 8
+    blob = glb[bin_start:]
+    doc = dict(doc, buffers=[{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                              + base64.b64encode(blob).decode()}])
+    return json.dumps(doc).encode()
+
+
+@pytest.mark.parametrize("case", ["missing", "not gltf", "truncated", "broken accessor", "nan", "no light", "only points"])
+def test_bad_input_gives_one_line_status_2_and_no_output(tmp_path, capsys, case):
+    path, words = _bad_inputs(tmp_path)[case]
+    out = tmp_path / "out"
+    status, stdout, err = run(capsys, "bake", str(path), "-o", str(out), "--resolution", "16", "--quiet")
+    assert status == 2
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert words.lower() in err.lower()
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_absurd_resolution_is_refused(tmp_path, capsys):
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "100000", "--quiet")
+    assert status == 2 and "8192" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_lightmap_too_large_for_memory_is_refused_with_the_estimate(tmp_path, capsys, monkeypatch):
+    import patchlight.atlas.uvs as uvs
+
+    monkeypatch.setattr(uvs, "_available_memory", lambda: 256 << 20)
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "2048", "--quiet")
+    assert status == 2 and "GiB" in err and "--resolution" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("argv", [["--sky", "1,2"], ["--passes", "0"], ["--accuracy", "1.5"], ["--exposure", "bright"]])
+def test_bad_options_are_one_line_errors(tmp_path, capsys, argv):
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), *argv)
+    assert status == 2 and len(err.strip().splitlines()) == 1
+
+
+def test_ctrl_c_leaves_no_partial_output(tmp_path, capsys, monkeypatch):
+    import patchlight.bake as bake_module
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bake_module, "solve", interrupted)
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "32", "--quiet")
+    assert status == 130 and "interrupted" in err
+    assert not (tmp_path / "out").exists()
