@@ -1,0 +1,1 @@
+"""GLSL chunks of the runtime lighting models: the single source the viewer loads."""

@@ -1,0 +1,17 @@
+// compose.glsl: the surface's radiance from its colour, emission and light sum.
+//   unlit      the colour map alone (lighting-models-for-games.txt)
+//   lightmap   colour x baked I + specular (DESIGN.md: a diffuse surface shows albedo x I)
+//   envmap     mix(colour x diffuse, env, fresnel) + env.a x reflectivity (envmap.glsl)
+//   the rest   colour x diffuse + specular
+// Every model but unlit adds the material's own emission.
+vec3 compose_surface(vec4 color, vec3 emission, Lighting lit, vec3 baked, vec4 env, float reflectivity) {
+#if MODEL == MODEL_UNLIT
+    return color.rgb;
+#elif MODEL == MODEL_LIGHTMAP
+    return color.rgb * baked + lit.specular + emission;
+#elif MODEL == MODEL_ENVMAP
+    return envmap_color(color.rgb * lit.diffuse, env, lit.fresnel, reflectivity) + emission;
+#else
+    return color.rgb * lit.diffuse + lit.specular + emission;
+#endif
+}

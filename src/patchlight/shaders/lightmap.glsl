@@ -1,0 +1,7 @@
+// lightmap.glsl: the baked incident light I (DESIGN.md) at the lightmap UVs (TEXCOORD_1).
+// The shaded colour of a diffuse surface is albedo x I.
+uniform sampler2D lightmap;
+
+vec3 lightmap_light(vec2 uv1) {
+    return texture(lightmap, uv1).rgb;
+}

@@ -1,0 +1,46 @@
+// surface_fragment.glsl: one pixel of a surface. Per pixel (the default) the light sum is
+// evaluated here with the interpolated normal, flipped on the back of double-sided
+// surfaces and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
+// gloss (hlsl-lighting-models.txt's bump-mapping shader: min(specular, color.w)).
+// OVERLAY shows a lightmap-space debug picture (a bake's pass or adaptive-sampling image)
+// as it is stored, without lighting or exposure.
+#include "surface.glsl"
+
+uniform sampler2D overlay_map;
+
+in vec3 v_position;
+in vec3 v_normal;
+in vec4 v_tangent;
+in vec2 v_uv0;
+in vec2 v_uv1;
+in vec4 v_color;
+#ifdef PER_VERTEX
+in vec3 v_diffuse;
+in vec3 v_specular;
+in vec3 v_reflected;
+in float v_fresnel;
+#endif
+
+void main() {
+#ifdef OVERLAY
+    gl_FragColor = vec4(texture(overlay_map, v_uv1).rgb, 1.0);
+#else
+    vec4 color = surface_color(v_uv0, v_color);
+#ifdef PER_VERTEX
+    Lighting lit = Lighting(v_diffuse, v_specular, v_reflected, v_fresnel);
+#else
+    vec3 N = normalize(v_normal) * (gl_FrontFacing ? 1.0 : -1.0);
+    float gloss = 1.0;
+#ifdef NORMAL_MAP
+    N = perturb_normal(N, v_tangent, decode_normal(texture(normal_map, v_uv0).rgb));
+    gloss = color.a;
+#endif
+    vec3 V = normalize(cameraPosition - v_position);
+    Lighting lit = light_surface(v_position, N, V, gloss, shininess, reflectivity);
+#endif
+    vec3 baked = lightmap_light(v_uv1);
+    vec4 env = texture(env_map, lit.reflected);
+    vec3 radiance = compose_surface(color, surface_emission(v_uv0), lit, baked, env, reflectivity);
+    gl_FragColor = vec4(display_encode(radiance, exposure), 1.0);
+#endif
+}

@@ -1,0 +1,226 @@
+"""The lighting models, composed from the terms exactly as lighting.glsl, compose.glsl and
+surface_fragment.glsl compose them (see those files for the formulas and sources).
+
+`light_surface` is one model's light sum at surface points; `compose_surface` turns colour,
+emission and that sum into radiance; `shade_fragments` runs the fragment shader on N covered
+pixels. The CPU renderer and the tests call these; the viewer runs the GLSL.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import PatchlightError
+from .lights import PunctualLight, incident_light
+from .terms import (blinn_phong_specular, decode_normal, envmap_color, fresnel_term, hemisphere_light,
+                    lambert_diffuse, normalize, perturb_normal, phong_specular, reflect_view, self_shadow)
+from .textures import sample_bilinear, sample_cube
+
+# Index = the GLSL MODEL_* number (common.glsl).
+MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap")
+LIT_MODELS = MODELS[1:]
+
+
+@dataclass
+class ShadingSettings:
+    """Everything but geometry and textures that decides a shaded pixel.
+
+    model: one of MODELS. lights: the punctual lights. ambient, sky, ground: (3,) incident light
+    (DESIGN.md units) of the ambient term and of the hemisphere's up and down poles.
+    per_vertex: evaluate the light sum at vertices and interpolate. normal_map: perturb normals
+    by the materials' normal maps, with the colour alpha as gloss. lightmap_specular: add the
+    lights' Blinn-Phong highlight to the lightmap model. exposure: display scale for PNGs and
+    the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
+    material's, or None to keep theirs."""
+
+    model: str = "lambert"
+    lights: list[PunctualLight] = field(default_factory=list)
+    ambient: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
+    sky: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
+    ground: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
+    per_vertex: bool = False
+    normal_map: bool = False
+    lightmap_specular: bool = False
+    exposure: float = 1.0
+    reflectivity: float | None = None
+
+    def validate(self) -> None:
+        if self.model not in MODELS:
+            raise PatchlightError(f"--model {self.model}: unknown lighting model (choose from {', '.join(MODELS)})")
+        if self.per_vertex and self.normal_map:
+            raise PatchlightError("--normal-map needs per-pixel lighting; drop --per-vertex")
+        if not (np.isfinite(self.exposure) and self.exposure > 0):
+            raise PatchlightError(f"--exposure {self.exposure}: must be a positive number")
+        if self.reflectivity is not None and not 0 <= self.reflectivity <= 1:
+            raise PatchlightError(f"--reflectivity {self.reflectivity}: must lie in [0, 1]")
+
+
+@dataclass
+class MaterialTable:
+    """The scene's materials as arrays: base_color (M, 4), emissive (M, 3), shininess (M,),
+    reflectivity (M,), double_sided (M,) bool; per-material textures (H, W, C) f32 or None."""
+
+    base_color: np.ndarray
+    emissive: np.ndarray
+    shininess: np.ndarray
+    reflectivity: np.ndarray
+    double_sided: np.ndarray
+    color_maps: list
+    emissive_maps: list
+    normal_maps: list
+
+    @classmethod
+    def from_materials(cls, materials, reflectivity: float | None = None) -> "MaterialTable":
+        refl = [m.reflectivity if reflectivity is None else reflectivity for m in materials]
+        return cls(np.array([m.base_color for m in materials], np.float32).reshape(-1, 4),
+                   np.array([m.emissive for m in materials], np.float32).reshape(-1, 3),
+                   np.array([m.shininess for m in materials], np.float32),
+                   np.array(refl, np.float32),
+                   np.array([m.double_sided for m in materials], bool),
+                   [m.base_color_texture for m in materials],
+                   [m.emissive_texture for m in materials],
+                   [m.normal_texture for m in materials])
+
+    def sample(self, maps: list, material: np.ndarray, uv: np.ndarray, default) -> np.ndarray:
+        """(N, C) texels of each point's material map (`default` (C,) where it has none)."""
+        out = np.broadcast_to(np.asarray(default, np.float32), (len(material), len(default))).copy()
+        for m in np.unique(material):
+            if maps[m] is not None:
+                sel = material == m
+                out[sel] = sample_bilinear(maps[m], uv[sel])[:, :len(default)]
+        return out
+
+
+@dataclass
+class Lighting:
+    """A light sum (lighting.glsl): diffuse, specular (N, 3); reflected (N, 3); fresnel (N,)."""
+
+    diffuse: np.ndarray
+    specular: np.ndarray
+    reflected: np.ndarray
+    fresnel: np.ndarray
+
+    def interpolate(self, corners: np.ndarray, bary: np.ndarray) -> "Lighting":
+        """Per-vertex sums (rows indexed by corners (N, 3)) interpolated with bary (N, 3)."""
+        from .surface import interpolate
+
+        return Lighting(interpolate(self.diffuse, corners, bary), interpolate(self.specular, corners, bary),
+                        interpolate(self.reflected, corners, bary),
+                        interpolate(self.fresnel[:, None], corners, bary)[:, 0])
+
+
+@dataclass
+class Fragments:
+    """The interpolated varyings of N covered pixels (surface_fragment.glsl's inputs).
+
+    position (N, 3) world metres; normal (N, 3) interpolated, not yet normalised; tangent (N, 4);
+    uv0, uv1 (N, 2); color (N, 4) vertex colour; material (N,) i32; front (N,) bool, False on
+    the back of a double-sided surface; vertex_lighting: the interpolated per-vertex sum, or None."""
+
+    position: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    uv0: np.ndarray
+    uv1: np.ndarray
+    color: np.ndarray
+    material: np.ndarray
+    front: np.ndarray
+    vertex_lighting: Lighting | None = None
+
+
+def add_light(model: str, lit: Lighting, L: np.ndarray, I: np.ndarray, N: np.ndarray, V: np.ndarray,
+              gloss, shininess, lightmap_specular: bool) -> None:
+    """lighting.glsl: add one light's share (L, I (N, 3)) to `lit` in place."""
+    n_dot_l = lambert_diffuse(N, L)[:, None]
+    if model == "self-shadow":
+        s = self_shadow(N, L)[:, None]
+        lit.diffuse += s * n_dot_l * I
+        lit.specular += s * np.minimum(phong_specular(N, L, V, shininess), gloss)[:, None] * I
+    elif model in ("phong", "blinn-phong"):
+        specular = phong_specular if model == "phong" else blinn_phong_specular
+        lit.diffuse += n_dot_l * I
+        lit.specular += np.minimum(specular(N, L, V, shininess), gloss)[:, None] * I
+    elif model == "lightmap":
+        if lightmap_specular:
+            lit.specular += np.minimum(blinn_phong_specular(N, L, V, shininess), gloss)[:, None] * I
+    else:
+        lit.diffuse += n_dot_l * I
+
+
+def light_surface(settings: ShadingSettings, P: np.ndarray, N: np.ndarray, V: np.ndarray, gloss,
+                  shininess, reflectivity) -> Lighting:
+    """lighting.glsl: the model's light sum at points P with unit normals N and unit view
+    vectors V (N, 3); gloss, shininess, reflectivity scalars or (N,)."""
+    n = len(P)
+    lit = Lighting(np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), reflect_view(N, V),
+                   np.broadcast_to(fresnel_term(N, V, reflectivity), (n,)).astype(np.float32))
+    model = settings.model
+    if model == "hemisphere":
+        lit.diffuse[:] = hemisphere_light(N, settings.sky, settings.ground)
+    elif model not in ("unlit", "lightmap"):
+        lit.diffuse[:] = settings.ambient
+    if model not in ("unlit", "ambient"):
+        for light in settings.lights:
+            L, I = incident_light(light, P)
+            add_light(model, lit, L, I, N, V, gloss, shininess, settings.lightmap_specular)
+    return lit
+
+
+def compose_surface(model: str, color: np.ndarray, emission: np.ndarray, lit: Lighting, baked, env,
+                    reflectivity) -> np.ndarray:
+    """compose.glsl: radiance (N, 3) from colour (N, 4), emission (N, 3), the light sum, the
+    baked lightmap light (N, 3) (lightmap model) and the environment texels (N, 4) (envmap)."""
+    rgb = color[:, :3]
+    if model == "unlit":
+        return rgb.copy()
+    if model == "lightmap":
+        return rgb * baked + lit.specular + emission
+    if model == "envmap":
+        return envmap_color(rgb * lit.diffuse, env, lit.fresnel, reflectivity) + emission
+    return rgb * lit.diffuse + lit.specular + emission
+
+
+def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: MaterialTable, eye: np.ndarray,
+                    lightmap: np.ndarray | None = None, env: np.ndarray | None = None) -> np.ndarray:
+    """surface_fragment.glsl on N pixels: linear radiance (N, 3) f32.
+
+    eye (3,) camera position; lightmap (H, W, 3) incident light at uv1, needed by the
+    lightmap model; env (6, S, S, 4) cube map (RGB radiance, A highlight), needed by envmap."""
+    model = settings.model
+    mat = frags.material
+    color = surface_color(materials, mat, frags.uv0, frags.color)
+    if model == "unlit":
+        return color[:, :3].copy()
+    shininess = materials.shininess[mat]
+    reflectivity = materials.reflectivity[mat]
+    if frags.vertex_lighting is not None:
+        lit = frags.vertex_lighting
+    else:
+        N = normalize(frags.normal) * np.where(frags.front, 1.0, -1.0).astype(np.float32)[:, None]
+        gloss = np.float32(1.0)
+        if settings.normal_map:
+            texel = materials.sample(materials.normal_maps, mat, frags.uv0, (0.5, 0.5, 1.0))
+            N = perturb_normal(N, frags.tangent, decode_normal(texel))
+            gloss = color[:, 3]
+        V = normalize(eye.astype(np.float32) - frags.position)
+        lit = light_surface(settings, frags.position, N, V, gloss, shininess, reflectivity)
+    emission = surface_emission(materials, mat, frags.uv0)
+    baked = lightmap_light(lightmap, frags.uv1) if model == "lightmap" else None
+    env_texels = sample_cube(env, lit.reflected) if model == "envmap" else None
+    return compose_surface(model, color, emission, lit, baked, env_texels, reflectivity).astype(np.float32)
+
+
+def surface_color(materials: MaterialTable, material: np.ndarray, uv0: np.ndarray, vertex_color: np.ndarray) -> np.ndarray:
+    """material.glsl: base colour x colour map x vertex colour, (N, 4) linear RGBA."""
+    return materials.base_color[material] * materials.sample(materials.color_maps, material, uv0, np.ones(4)) * vertex_color
+
+
+def surface_emission(materials: MaterialTable, material: np.ndarray, uv0: np.ndarray) -> np.ndarray:
+    """material.glsl: emissive factor x emissive map, (N, 3) radiance."""
+    return materials.emissive[material] * materials.sample(materials.emissive_maps, material, uv0, np.ones(3))
+
+
+def lightmap_light(lightmap: np.ndarray, uv1: np.ndarray) -> np.ndarray:
+    """lightmap.glsl: the baked incident light (N, 3) at lightmap UVs uv1 (N, 2), edges clamped."""
+    return sample_bilinear(lightmap, uv1, wrap="clamp")[:, :3]

@@ -1,0 +1,60 @@
+"""The GLSL chunks are the single source; the NumPy reference mirrors them name for name."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import patchlight.shaders as _shaders_pkg  # noqa: F401  (the directory holds only .glsl files)
+from patchlight.shading import lights, models, terms
+from patchlight.shading.lights import FALLOFFS, LIGHT_KINDS, MAX_LIGHTS
+from patchlight.shading.models import MODELS
+
+SHADERS = Path(_shaders_pkg.__path__[0])
+FUNCTION = re.compile(r"^(?:float|vec[234]|void|Incident|Lighting)\s+(\w+)\s*\(", re.M)
+DEFINE = re.compile(r"^#define\s+(\w+)\s+(\S+)", re.M)
+INCLUDE = re.compile(r'^#include\s+"([\w.]+)"', re.M)
+SOURCES = ("hlsl-lighting-models.txt", "lighting-models-for-games.txt", "hemisphere-lighting-with-radiosity-maps.txt",
+           "KHR_lights_punctual", "DESIGN.md", "IEC 61966", "patchlight.imaging")
+
+
+def chunks() -> dict[str, str]:
+    return {p.name: p.read_text() for p in sorted(SHADERS.glob("*.glsl"))}
+
+
+def test_every_glsl_function_has_a_numpy_twin():
+    python = {name for module in (terms, lights, models) for name in dir(module)}
+    glsl = {name for text in chunks().values() for name in FUNCTION.findall(text)} - {"main"}
+    assert len(glsl) >= 20
+    assert sorted(glsl - python) == []
+
+
+def test_model_light_and_falloff_numbers_match():
+    defines = {k: v for text in chunks().values() for k, v in DEFINE.findall(text)}
+    assert [defines[f"MODEL_{m.upper().replace('-', '_')}"] for m in MODELS] == [str(i) for i in range(len(MODELS))]
+    assert [defines[f"LIGHT_{k.upper()}"] for k in LIGHT_KINDS] == ["0", "1", "2"]
+    assert [defines[f"FALLOFF_{f.upper().replace('-', '_')}"] for f in FALLOFFS] == ["0", "1"]
+    assert defines["MAX_LIGHTS"] == str(MAX_LIGHTS)
+    assert len([k for k in defines if k.startswith("MODEL_")]) == len(MODELS)
+
+
+def test_includes_resolve_and_every_chunk_is_used():
+    texts = chunks()
+    used = set()
+
+    def visit(name):
+        assert name in texts, f"missing chunk {name}"
+        if name not in used:
+            used.add(name)
+            for child in INCLUDE.findall(texts[name]):
+                visit(child)
+
+    visit("surface_vertex.glsl")
+    visit("surface_fragment.glsl")
+    assert used == set(texts)
+
+
+def test_every_formula_chunk_cites_its_source():
+    for name, text in chunks().items():
+        if FUNCTION.search(text) and name not in ("lights.glsl", "common.glsl", "material.glsl",
+                                                  "surface_vertex.glsl", "surface_fragment.glsl"):
+            assert any(s in text for s in SOURCES), f"{name} cites none of {SOURCES}"

@@ -1,0 +1,77 @@
+"""Known answers for the punctual lights, their falloffs and the --light spec syntax."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from patchlight.errors import PatchlightError
+from patchlight.scene.model import Light
+from patchlight.shading.lights import (directional_light, from_scene_light, inverse_square_falloff,
+                                       parse_light_spec, point_light, range_falloff, spot_cone, spot_light)
+
+
+def test_range_falloff_reaches_zero_at_the_range_and_stays_there():
+    r = 5.0
+    d = np.array([0.0, 2.5, 5.0, 5.0001, 7.0, 100.0], np.float32)
+    np.testing.assert_allclose(range_falloff(d, r), [1.0, 0.75, 0.0, 0.0, 0.0, 0.0], atol=1e-6)
+    assert range_falloff(np.float32(5.0), r) == 0.0
+
+
+def test_inverse_square_falloff():
+    np.testing.assert_allclose(inverse_square_falloff(np.array([1.0, 2.0, 4.0])), [1.0, 0.25, 1 / 16])
+
+
+def test_units_follow_design_md():
+    """A sun of irradiance E gives I = E / pi; a point of intensity J at distance d gives J / (pi d^2)."""
+    P = np.array([[0.0, 0.0, 0.0]])
+    L, I = directional_light([0.0, -1.0, 0.0], [2.0, 4.0, 6.0], P)
+    np.testing.assert_allclose(L, [[0, 1, 0]])
+    np.testing.assert_allclose(I, [[2 / np.pi, 4 / np.pi, 6 / np.pi]])
+    L, I = point_light([0.0, 3.0, 4.0], [10.0, 10.0, 10.0], 0.0, "inverse-square", P)
+    np.testing.assert_allclose(L, [[0, 0.6, 0.8]])
+    np.testing.assert_allclose(I, [[10 / (np.pi * 25)] * 3])
+    _, I = point_light([0.0, 3.0, 4.0], [10.0, 10.0, 10.0], 10.0, "range", P)
+    np.testing.assert_allclose(I, [[10 * 0.75 / np.pi] * 3])
+
+
+def test_spot_cone_is_full_inside_zero_outside_and_smooth_between():
+    inner, outer = math.radians(10), math.radians(30)
+    down = np.array([0.0, -1.0, 0.0])
+    angles = np.radians([0, 9.9, 20, 30.1, 60])
+    L = np.stack([-np.sin(angles), np.cos(angles), np.zeros_like(angles)], axis=1)  # towards the light
+    cone = spot_cone(L, down, math.cos(inner), math.cos(outer))
+    t = (math.cos(math.radians(20)) - math.cos(outer)) / (math.cos(inner) - math.cos(outer))
+    np.testing.assert_allclose(cone, [1.0, 1.0, t * t, 0.0, 0.0], atol=1e-6)
+    P = np.array([[0.0, 0.0, 0.0]])
+    _, I = spot_light([0.0, 2.0, 0.0], down, [8.0, 8.0, 8.0], 0.0, "inverse-square",
+                      math.cos(inner), math.cos(outer), P)
+    np.testing.assert_allclose(I, [[8 / (4 * np.pi)] * 3])
+
+
+def test_parse_light_specs():
+    sun = parse_light_spec("dir:0,-2,0:1,0.9,0.8:3")
+    assert sun.kind == "directional" and sun.intensity == 3
+    np.testing.assert_allclose(sun.direction, [0, -1, 0])
+    lamp = parse_light_spec("point:1,2,3:1,1,1:50:4")
+    assert lamp.kind == "point" and lamp.range == 4 and list(lamp.position) == [1, 2, 3]
+    spot = parse_light_spec("spot:0,3,0:0,-1,0:1,1,1:80:40:20:9")
+    assert spot.kind == "spot" and spot.range == 9
+    assert spot.outer_cone == pytest.approx(math.radians(40)) and spot.inner_cone == pytest.approx(math.radians(20))
+
+
+@pytest.mark.parametrize("spec", ["lamp:0,0,0:1,1,1:1", "point:0,0:1,1,1:1", "point:0,0,0:1,1,1",
+                                  "dir:0,0,0:1,1,1:1", "point:0,0,0:1,1,1:x", "spot:0,0,0:0,-1,0:1,1,1:1:30:40",
+                                  "point:0,0,0:1,1,1:-3", "point:0,0,0:1,1,1:1:2:3"])
+def test_bad_light_specs_are_one_line_errors(spec):
+    with pytest.raises(PatchlightError) as err:
+        parse_light_spec(spec)
+    assert "\n" not in str(err.value) and spec in str(err.value)
+
+
+def test_range_falloff_needs_a_range():
+    light = Light("point", np.ones(3, np.float32), 1.0)
+    with pytest.raises(PatchlightError, match="range falloff needs a range"):
+        from_scene_light(light, "range", "light 0")
+    assert from_scene_light(light, "inverse-square", "light 0").falloff == "inverse-square"
