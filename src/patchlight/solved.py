@@ -1,0 +1,98 @@
+"""A solved scene: a scene with its lightmap, from a bake directory or baked on the spot.
+
+Everything that reads baked light (light volumes, ground maps, vertex colours, the renderer's
+`lightmap` model) starts here, and asks `excident` for the light leaving a surface point.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .config import BakeSettings
+from .errors import PatchlightError
+from .scene.model import Scene
+
+
+@dataclass
+class SolvedScene:
+    """scene (with uv1 lightmap UVs) and lightmap (H, W, 3) f32 incident light I."""
+
+    scene: Scene
+    lightmap: np.ndarray
+    source: str
+
+    def incident(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(N, 3) incident light I at hit points (triangle, barycentrics u, v), bilinear."""
+        from .shading.textures import sample_bilinear
+
+        uv1 = _at_hits(self.scene.uv1, self.scene.indices, tri, u, v)
+        return sample_bilinear(self.lightmap, uv1, wrap="clamp")
+
+    def reflectance(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(N, 3) linear base colour (factor x texture at uv0) at hit points."""
+        return self._material_rgb(tri, u, v, "base_color", "base_color_texture")
+
+    def emission(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(N, 3) emitted radiance at hit points."""
+        return self._material_rgb(tri, u, v, "emissive", "emissive_texture")
+
+    def excident(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(N, 3) radiance leaving diffuse surfaces at hit points: B = rho I + E."""
+        return self.reflectance(tri, u, v) * self.incident(tri, u, v) + self.emission(tri, u, v)
+
+    def _material_rgb(self, tri, u, v, factor: str, texture: str) -> np.ndarray:
+        from .shading.textures import sample_bilinear
+
+        s = self.scene
+        out = np.zeros((len(tri), 3), np.float32)
+        material = s.material_ids[tri]
+        uv0 = None
+        for m_id in np.unique(material):
+            rows = material == m_id
+            m = s.materials[m_id]
+            out[rows] = np.asarray(getattr(m, factor), np.float32)[:3]
+            image = getattr(m, texture)
+            if image is not None:
+                if uv0 is None:
+                    uv0 = _at_hits(s.uv0, s.indices, tri, u, v)
+                out[rows] *= sample_bilinear(image, uv0[rows])[:, :3]
+        return out
+
+
+def _at_hits(attribute: np.ndarray, indices: np.ndarray, tri, u, v) -> np.ndarray:
+    corners = attribute[indices[tri]]  # (N, 3, C)
+    w = np.stack([1 - u - v, u, v], axis=1)[..., None]
+    return (corners * w).sum(axis=1).astype(np.float32)
+
+
+def is_bake_dir(path: str | Path) -> bool:
+    p = Path(path)
+    return p.is_dir() and (p / "scene.glb").exists() and (p / "lightmap.exr").exists()
+
+
+def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None, quiet: bool = True) -> SolvedScene:
+    """A bake directory as written by `patchlight bake`, or a scene (file or built-in name)
+    baked now with `settings`. sky, when given, replaces the scene's."""
+    from .imaging.io import read_exr
+    from .scene import load_scene
+
+    if is_bake_dir(spec):
+        scene = load_scene(Path(spec) / "scene.glb")
+        if sky is not None:
+            scene.sky = sky
+        lightmap = read_exr(Path(spec) / "lightmap.exr")
+        if scene.uv1 is None:
+            raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
+        return SolvedScene(scene, lightmap, str(spec))
+    if Path(spec).is_dir():
+        raise PatchlightError(f"{spec}: a directory without scene.glb and lightmap.exr is not a bake")
+    from .bake import bake
+
+    scene = load_scene(spec)
+    if sky is not None:
+        scene.sky = sky
+    result = bake(scene, settings or BakeSettings(), quiet=quiet)
+    return SolvedScene(result.scene, result.lightmap, str(spec))
+
