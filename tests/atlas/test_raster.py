@@ -3,15 +3,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from atlas_meshes import make_scene, needle_scene, quad_scene
+from atlas_meshes import cube_scene, make_scene, needle_scene, quad_scene
 
 from patchlight.atlas.raster import rasterize
+from patchlight.atlas.uvs import ensure_lightmap_uvs
 from patchlight.errors import PatchlightError
 from patchlight.scene.model import Material
 
 
-def clip_area(triangle, x, y):
-    """Area of triangle (3, 2) inside the square [x, x+1] x [y, y+1], by clipping the
+def clip(triangle, x, y):
+    """Polygon (K, 2) of triangle (3, 2) inside the square [x, x+1] x [y, y+1], clipping the
     triangle against the square's four sides (the kernel does the reverse)."""
     polygon = [tuple(p) for p in triangle]
     for axis, bound, keep_below in ((0, x, False), (0, x + 1, True), (1, y, False), (1, y + 1, True)):
@@ -27,9 +28,20 @@ def clip_area(triangle, x, y):
                 out.append((p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1])))
         polygon = out
         if len(polygon) < 3:
-            return 0.0
-    xs, ys = np.array(polygon).T
-    return 0.5 * abs(np.dot(xs, np.roll(ys, -1)) - np.dot(ys, np.roll(xs, -1)))
+            return np.zeros((0, 2))
+    return np.array(polygon)
+
+
+def clip_area(triangle, x, y):
+    xs, ys = clip(triangle, x, y).T
+    return 0.5 * abs(np.dot(xs, np.roll(ys, -1)) - np.dot(ys, np.roll(xs, -1))) if len(xs) else 0.0
+
+
+def clip_centroid(triangle, x, y):
+    xs, ys = clip(triangle, x, y).T
+    cross = xs * np.roll(ys, -1) - np.roll(xs, -1) * ys
+    return np.array([((xs + np.roll(xs, -1)) * cross).sum(), ((ys + np.roll(ys, -1)) * cross).sum()]) / (
+        3 * cross.sum())
 
 
 def covers_centre(triangle, x, y):
@@ -82,21 +94,27 @@ def test_quad_texel_centres_follow_the_affine_map():
     assert charts.tolist() == [0, 0] and patches.chart.tolist() == [0, 0, 0, 0]
 
 
-def test_positions_of_edge_texels_are_clamped_onto_the_triangle():
+def test_rim_texels_sample_the_middle_of_their_covered_part():
     scene = make_scene([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], uv1=[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]])
     patches, _ = rasterize(scene, 4, 4)
     assert len(patches) == 10  # texels whose square meets the triangle's interior
-    p = patches.position.astype(np.float64)
-    world_uv = scene.uv1[0] + p[:, [0, 2]] * 0.8  # world (x, z) -> uv1
-    assert np.all(p[:, 0] >= -1e-6) and np.all(p[:, 2] >= -1e-6) and np.all(p[:, 0] + p[:, 2] <= 1 + 1e-6)
-    centre = (np.stack([patches.texel_x, patches.texel_y], 1) + 0.5) / 4
-    inside = (centre[:, 0] >= 0.1) & (centre[:, 1] >= 0.1) & (centre.sum(1) <= 1.0)
-    np.testing.assert_allclose(world_uv[inside], centre[inside], atol=1e-6)
-    # outside centres land on the nearest point of the hypotenuse u + v = 1 (or a corner)
-    for uv, c in zip(world_uv[~inside], centre[~inside]):
-        nearest = np.clip(c - (c.sum() - 1.0) / 2, 0.1, 0.9)
-        nearest[1] = 1.0 - nearest[0]
-        np.testing.assert_allclose(uv, nearest, atol=1e-6)
+    world_uv = (scene.uv1[0] + patches.position[:, [0, 2]].astype(np.float64) * 0.8) * 4  # texel units
+    tex = scene.uv1[scene.indices[0]].astype(np.float64) * 4
+    for (x, y), p in zip(zip(patches.texel_x, patches.texel_y), world_uv):
+        whole = clip_area(tex, x, y) == pytest.approx(1.0)  # texel inside the triangle: its centre
+        np.testing.assert_allclose(p, [x + 0.5, y + 0.5] if whole else clip_centroid(tex, x, y), atol=1e-5)
+
+
+def test_no_patch_samples_a_box_edge():
+    # an inward unit box: a rim texel sampled on an edge would sit on the adjacent wall's plane
+    scene, width, height, _ = ensure_lightmap_uvs(cube_scene(), texels_per_unit=8)
+    patches, _ = rasterize(scene, width, height)
+    on_a_wall = (np.abs(patches.position - 0.5) > 0.5 - 1e-3).sum(axis=1)
+    np.testing.assert_array_equal(on_a_wall, 1)
+    # xatlas runs chart rims through texel centres; the sample sits at the centroid of the
+    # covered part: >= a sixth of a texel (0.125 m / 6) off the rim, where a corner texel's
+    # part is a right triangle with half-texel legs
+    assert (np.sort(np.abs(patches.position - 0.5), axis=1)[:, 1] < 0.5 - 0.02).all()
 
 
 def test_normal_is_interpolated_and_flipped_to_the_face_when_facing_away():

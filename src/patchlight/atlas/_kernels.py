@@ -19,10 +19,23 @@ CENTRE_SCORE = 2.0  # beats any overlap area (at most 1 texel^2)
 # ----------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _clipped_area(x, y, nx, ny, d, work):
-    """Area of the texel square [x, x+1] x [y, y+1] inside the half-planes n.p <= d (3 of them).
+def _edge_planes(tex, t, nx, ny, d):
+    """Fill nx, ny, d (3,) with triangle t's outward edge normals: inside is n.p <= d."""
+    sign = 1.0 if _area2(tex, t) > 0.0 else -1.0
+    for k in range(3):
+        px, py = tex[t, k, 0], tex[t, k, 1]
+        qx, qy = tex[t, (k + 1) % 3, 0], tex[t, (k + 1) % 3, 1]
+        nx[k] = sign * (qy - py)
+        ny[k] = -sign * (qx - px)
+        d[k] = nx[k] * px + ny[k] * py
 
-    work: (2, 2, 8) f64 scratch (two polygons, x/y, up to 7 vertices used)."""
+
+@njit(cache=True)
+def _clip_square(x, y, nx, ny, d, work):
+    """Clip the texel square [x, x+1] x [y, y+1] by the half-planes n.p <= d (3 of them).
+
+    work: (2, 2, 8) f64 scratch (two polygons, x/y, up to 7 vertices used).
+    Returns (count, polygon): the result is work[polygon, :, :count] (count < 3: empty)."""
     src, dst = 0, 1
     work[src, 0, 0], work[src, 1, 0] = x, y
     work[src, 0, 1], work[src, 1, 1] = x + 1.0, y
@@ -48,12 +61,32 @@ def _clipped_area(x, y, nx, ny, d, work):
         count = out
         src, dst = dst, src
         if count < 3:
-            return 0.0
-    area2 = 0.0
+            return 0, src
+    return count, src
+
+
+@njit(cache=True)
+def _polygon_moments(work, polygon, count):
+    """(area, centroid x, centroid y) of work[polygon, :, :count]; area 0 when degenerate."""
+    area2, mx, my = 0.0, 0.0, 0.0
     for i in range(count):
         j = (i + 1) % count
-        area2 += work[src, 0, i] * work[src, 1, j] - work[src, 0, j] * work[src, 1, i]
-    return 0.5 * abs(area2)
+        px, py = work[polygon, 0, i], work[polygon, 1, i]
+        qx, qy = work[polygon, 0, j], work[polygon, 1, j]
+        cross = px * qy - qx * py
+        area2 += cross
+        mx += (px + qx) * cross
+        my += (py + qy) * cross
+    if abs(area2) < 1e-300:
+        return 0.0, 0.0, 0.0
+    return 0.5 * abs(area2), mx / (3.0 * area2), my / (3.0 * area2)
+
+
+@njit(cache=True)
+def _clipped_area(x, y, nx, ny, d, work):
+    """Area of the texel square [x, x+1] x [y, y+1] inside the half-planes n.p <= d."""
+    count, polygon = _clip_square(x, y, nx, ny, d, work)
+    return _polygon_moments(work, polygon, count)[0] if count >= 3 else 0.0
 
 
 @njit(cache=True)
@@ -107,14 +140,7 @@ def rasterize_owners(tex, live, width, height):
         if degenerate:
             _rasterize_segment(owner, best, t, tex, longest2, x0, x1, y0, y1)
             continue
-        # outward edge normals: inside is n.p <= d for all three edges
-        sign = 1.0 if area2 > 0.0 else -1.0
-        for k in range(3):
-            px, py = tex[t, k, 0], tex[t, k, 1]
-            qx, qy = tex[t, (k + 1) % 3, 0], tex[t, (k + 1) % 3, 1]
-            nx[k] = sign * (qy - py)
-            ny[k] = -sign * (qx - px)
-            d[k] = nx[k] * px + ny[k] * py
+        _edge_planes(tex, t, nx, ny, d)
         for y in range(y0, y1 + 1):
             for x in range(x0, x1 + 1):
                 touched = True
@@ -264,22 +290,72 @@ def _footprint_mean(data, offset, width, height, texel_x, texel_y, samples, ax, 
     return r / count, g / count, b / count
 
 
+@njit(cache=True)
+def _sample_point(tex, t, boundary, x, y):
+    """Where texel (y, x) samples triangle t, in texel units: the texel centre when it lies
+    in t and the texel square lies within every chart-boundary edge of t (boundary (T, 3)
+    bool, edge k runs from corner k to k+1); otherwise the centroid of the part of the texel
+    t overlaps.  So a texel on a chart's rim samples the middle of its covered part, never a
+    point on the rim itself (at a box's corner that would be the adjacent wall's plane)."""
+    px, py = x + 0.5, y + 0.5
+    sign = 1.0 if _area2(tex, t) > 0.0 else -1.0
+    rim = not _inside(tex, t, px, py)
+    for k in range(3):
+        if boundary[t, k] and not rim:
+            ax, ay = tex[t, k, 0], tex[t, k, 1]
+            bx, by = tex[t, (k + 1) % 3, 0], tex[t, (k + 1) % 3, 1]
+            nx, ny = sign * (by - ay), -sign * (bx - ax)
+            rim = nx * x + ny * y + max(nx, 0.0) + max(ny, 0.0) > nx * ax + ny * ay
+    if not rim:
+        return px, py
+    nx, ny, d = np.empty(3), np.empty(3), np.empty(3)
+    work = np.empty((2, 2, 8))
+    _edge_planes(tex, t, nx, ny, d)
+    count, polygon = _clip_square(x, y, nx, ny, d, work)
+    if count < 3:
+        return px, py
+    area, mx, my = _polygon_moments(work, polygon, count)
+    return (mx, my) if area > 1e-12 else (px, py)
+
+
+@njit(cache=True)
+def _area2(tex, t):
+    """Twice the signed texel-space area of triangle t."""
+    ax, ay = tex[t, 0, 0], tex[t, 0, 1]
+    return (tex[t, 1, 0] - ax) * (tex[t, 2, 1] - ay) - (tex[t, 1, 1] - ay) * (tex[t, 2, 0] - ax)
+
+
+@njit(cache=True)
+def _inside(tex, t, px, py):
+    """p inside (or on) triangle t; False for zero-area triangles."""
+    area2 = _area2(tex, t)
+    if area2 == 0.0:
+        return False
+    ax, ay = tex[t, 0, 0], tex[t, 0, 1]
+    bx, by = tex[t, 1, 0], tex[t, 1, 1]
+    cx, cy = tex[t, 2, 0], tex[t, 2, 1]
+    l1 = ((px - ax) * (cy - ay) - (py - ay) * (cx - ax)) / area2
+    l2 = ((bx - ax) * (py - ay) - (by - ay) * (px - ax)) / area2
+    return l1 >= 0.0 and l2 >= 0.0 and l1 + l2 <= 1.0
+
+
 @njit(cache=True, parallel=True)
-def texel_attributes(texel_y, texel_x, triangle, tex, positions, normals, uv0, colors, indices,
+def texel_attributes(texel_y, texel_x, triangle, tex, boundary, positions, normals, uv0, colors, indices,
                      face_normal, material, base_factor, emissive_factor, base_texture,
                      emissive_texture, tex_data, tex_offset, tex_width, tex_height, samples):
     """Surface attributes of N owned texels.
 
     texel_y, texel_x, triangle: (N,) the texel and the triangle that owns it.  tex: (T, 3, 2)
-    f64 texel-unit corners.  positions (V, 3), normals (V, 3), uv0 (V, 2), colors (V, 4) (or
+    f64 texel-unit corners; boundary (T, 3) bool chart-rim edges.  positions (V, 3), normals (V, 3), uv0 (V, 2), colors (V, 4) (or
     (0, 4) for none) vertex arrays; indices (T, 3); face_normal (T, 3) unit; material (T,).
     base_factor, emissive_factor: (M, 3) linear RGB.  base_texture, emissive_texture: (M,) i64
     texture id or -1.  Textures are stacked RGB rows in tex_data (K, 3) f32; texture i starts at
     tex_offset[i] with tex_width[i] x tex_height[i] texels.  samples: grid points per texel axis
     for averaging over the texel footprint.
     Returns position, normal, rho, emission, each (N, 3) f32.  Position, normal and vertex
-    colour use the texel centre's barycentrics clamped into the triangle; texture footprint
-    samples use the owner's affine uv1 -> uv0 map unclamped, so a texel straddling two
+    colour use the barycentrics of `_sample_point` (the texel centre, or on a chart's rim the
+    centroid of the texel's overlap with the triangle), clamped into the triangle; footprint
+    texture samples use the owner's affine uv1 -> uv0 map unclamped, so a texel straddling two
     triangles of one continuous uv0 mapping averages exactly its own footprint.
     """
     n = texel_y.shape[0]
@@ -294,7 +370,8 @@ def texel_attributes(texel_y, texel_x, triangle, tex, positions, normals, uv0, c
         bx, by = tex[t, 1, 0], tex[t, 1, 1]
         cx, cy = tex[t, 2, 0], tex[t, 2, 1]
         i0, i1, i2 = indices[t, 0], indices[t, 1], indices[t, 2]
-        l0, l1, l2 = clamped_barycentrics(texel_x[i] + 0.5, texel_y[i] + 0.5, ax, ay, bx, by, cx, cy)
+        px, py = _sample_point(tex, t, boundary, texel_x[i], texel_y[i])
+        l0, l1, l2 = clamped_barycentrics(px, py, ax, ay, bx, by, cx, cy)
         for c in range(3):
             position[i, c] = l0 * positions[i0, c] + l1 * positions[i1, c] + l2 * positions[i2, c]
         nx = l0 * normals[i0, 0] + l1 * normals[i1, 0] + l2 * normals[i2, 0]

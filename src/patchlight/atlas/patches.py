@@ -15,8 +15,8 @@ class Patches:
     """N patches of a W x H lightmap.
 
     texel_y, texel_x: (N,) i32 texel row and column (row 0 is v = 0, the image top).
-    position: (N, 3) f32 world-space point on the surface at the texel centre (clamped into
-    the triangle for texels that only touch it).  normal: (N, 3) f32 unit interpolated normal.
+    position: (N, 3) f32 world-space point on the surface at the texel centre (on a chart's
+    rim: the centroid of the texel's overlap with its triangle, see atlas/raster.py).  normal: (N, 3) f32 unit interpolated normal.
     triangle: (N,) i32 the triangle the texel samples.  rho: (N, 3) f32 reflectance (linear
     base colour, averaged over the texel's footprint).  emission: (N, 3) f32 radiance.
     chart: (N,) i32 UV chart id (texels of different charts are never interpolated together).

@@ -5,8 +5,12 @@ square, so thin and tiny triangles still get texels.  Among the triangles touchi
 the owner is the first (lowest index) covering the texel centre, else the one overlapping the
 square most.  Triangles of zero world area are skipped: nothing can see or light them.
 
-Per patch (see `Patches`): position at the texel centre's barycentrics clamped into the owner
-triangle; interpolated vertex normal (the face normal when that faces away); chart = connected
+Per patch (see `Patches`): position at the texel centre on the owner triangle, except on a
+chart's rim (the texel crosses an edge no other triangle shares in uv1, or the owner only
+touches the texel) where it is the centroid of the texel's overlap with the owner: a point on
+the triangle in the middle of what the texel covers, never on the rim itself, which at a
+box's inner corner is the adjacent wall's plane and would leak half the gather's rays;
+interpolated vertex normal (the face normal when that faces away); chart = connected
 component of triangles sharing uv1 edges (`uv_charts`); size = world length of a texel edge on
 the owner, sqrt(world area / texel area); rho = base colour factor x COLOR_0 (at the clamped
 centre) x base-colour texture averaged over SAMPLES x SAMPLES points of the texel footprint
@@ -21,7 +25,7 @@ from ..errors import PatchlightError
 from ..scene.model import Scene, face_normals
 from . import _kernels
 from .patches import Patches
-from .uvs import uv_charts
+from .uvs import uv_boundary_edges, uv_charts
 
 SAMPLES = 4  # footprint grid per texel axis for texture averages
 
@@ -65,7 +69,7 @@ def _attributes(scene, tex, texel_y, texel_x, triangle, face_normal):
     colors = np.zeros((0, 4), np.float32) if scene.colors is None else np.asarray(scene.colors, np.float32)
     return _kernels.texel_attributes(
         texel_y.astype(np.int64), texel_x.astype(np.int64), triangle.astype(np.int64), tex,
-        np.asarray(scene.positions, np.float64), np.asarray(scene.normals, np.float64),
+        uv_boundary_edges(scene.uv1, scene.indices), np.asarray(scene.positions, np.float64), np.asarray(scene.normals, np.float64),
         np.asarray(scene.uv0, np.float64), colors, np.asarray(scene.indices, np.int64),
         face_normal.astype(np.float64), np.asarray(scene.material_ids, np.int64), base_factor, emissive_factor,
         base_id, emissive_id, data, offset, tex_w, tex_h, SAMPLES)

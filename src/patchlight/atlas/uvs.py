@@ -124,9 +124,29 @@ def uv_charts(uv1: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, int]:
     triangles sharing a UV edge (both end points with bit-identical uv1)."""
     if len(indices) == 0:
         return np.zeros(0, np.int32), 0
-    corner_uv = np.ascontiguousarray(uv1[indices].reshape(-1, 2), np.float32) + np.float32(0.0)  # -0 -> +0
-    keys = np.unique(corner_uv.view(np.int64).ravel(), return_inverse=True)[1].reshape(-1, 3)
-    return _shared_edge_components(keys)
+    return _shared_edge_components(_uv_keys(uv1, indices))
+
+
+def uv_boundary_edges(uv1: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """(T, 3) bool: edge k of triangle t (corner k to corner k+1) is on a chart's rim, that
+    is no other triangle has the same UV edge."""
+    if len(indices) == 0:
+        return np.zeros((0, 3), bool)
+    code = _edge_codes(_uv_keys(uv1, indices)).ravel()
+    count = np.unique(code, return_inverse=True, return_counts=True)
+    return (count[2][count[1]] == 1).reshape(-1, 3)
+
+
+def _uv_keys(uv1, indices):
+    """(T, 3) i64 key per corner, equal for bit-identical uv1 values (-0 counted as +0)."""
+    corner_uv = np.ascontiguousarray(uv1[indices].reshape(-1, 2), np.float32) + np.float32(0.0)
+    return np.unique(corner_uv.view(np.int64).ravel(), return_inverse=True)[1].reshape(-1, 3)
+
+
+def _edge_codes(keys):
+    """(T, 3) i64 code of each triangle edge k (corner k to k+1), independent of direction."""
+    edges = np.sort(np.stack([keys[:, [0, 1]], keys[:, [1, 2]], keys[:, [2, 0]]], axis=1), axis=2)
+    return edges[..., 0].astype(np.int64) * (int(keys.max()) + 1) + edges[..., 1]
 
 
 # ----------------------------------------------------------------------------------------
@@ -245,8 +265,7 @@ def pack_planar_charts(scene: Scene, texels_per_unit: float, resolution: int | N
 def _planar_charts(positions, indices, normal):
     """Chart id (T,) and count: region growing over triangles sharing an edge (by position)."""
     welded = np.unique(positions, axis=0, return_inverse=True)[1].ravel()[indices]
-    edges = np.sort(np.stack([welded[:, [0, 1]], welded[:, [1, 2]], welded[:, [2, 0]]], axis=1), axis=2)
-    code = edges[..., 0].astype(np.int64) * (welded.max() + 1) + edges[..., 1]
+    code = _edge_codes(welded)
     triangle = np.repeat(np.arange(len(indices)), 3)
     order = np.argsort(code.ravel(), kind="stable")
     code, triangle = code.ravel()[order], triangle[order]
@@ -332,9 +351,7 @@ def _shared_edge_components(keys):
     """Connected components (T,) i32 and count of triangles whose corners carry vertex keys
     (T, 3), linked when they share an edge (an unordered pair of keys)."""
     t_count = len(keys)
-    edges = np.sort(np.stack([keys[:, [0, 1]], keys[:, [1, 2]], keys[:, [2, 0]]], axis=1), axis=2)
-    code = edges[..., 0].astype(np.int64) * (int(keys.max()) + 1) + edges[..., 1]
-    edge_id = np.unique(code.ravel(), return_inverse=True)[1].ravel()
+    edge_id = np.unique(_edge_codes(keys).ravel(), return_inverse=True)[1].ravel()
     rows = np.repeat(np.arange(t_count), 3)
     graph = coo_matrix((np.ones(len(rows), np.int8), (rows, t_count + edge_id)),
                        shape=(t_count + edge_id.max() + 1,) * 2)
