@@ -209,6 +209,8 @@ def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
             last = (run.stderr.strip().splitlines() or ["no message"])[-1]
             raise _XatlasFailed(f"xatlas failed (exit status {run.returncode}: {last})")
         with np.load(target) as data:
+            if data["indices"].shape != (scene.n_triangles, 3):
+                raise _XatlasFailed(f"xatlas returned {len(data['indices'])} of {scene.n_triangles} triangles")
             return _Packing(vmapping=data["vmapping"].astype(np.int64), indices=data["indices"].astype(np.int32),
                             uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
                             height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]),
