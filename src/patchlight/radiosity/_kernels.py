@@ -20,7 +20,7 @@ def _basis(n):
     return t, s
 
 
-@nb.njit(cache=True, parallel=False)
+@nb.njit(cache=True)
 def make_rays(position, normal, offset, rows, local_dirs, angles):
     """Origins and directions (len(rows) * D, 3) f32 for the patches `rows`.
 
@@ -79,3 +79,33 @@ def resolve_hits(tri, u, v, front, tri_uv1, width, height, index):
                         found = index[yy, xx]
         out[i] = found if found >= 0 else LOST
     return out
+
+
+@nb.njit(cache=True)
+def interpolate_in_order(G, status, targets, neighbours, computed, interpolated, inside):
+    """Fill G (N, 3) in place at every non-computed target, in order, with the mean of its
+    neighbours (K, 4; -1 = none) that already have values; none -> 0. Texels `inside` -> 0."""
+    have = (status == computed) | (status == interpolated)
+    for k in range(targets.shape[0]):
+        t = targets[k]
+        if status[t] == computed:
+            continue
+        count = 0
+        acc0 = acc1 = acc2 = 0.0
+        for j in range(neighbours.shape[1]):
+            n = neighbours[k, j]
+            if n >= 0 and have[n]:
+                acc0 += G[n, 0]
+                acc1 += G[n, 1]
+                acc2 += G[n, 2]
+                count += 1
+        if count > 0:
+            G[t, 0], G[t, 1], G[t, 2] = acc0 / count, acc1 / count, acc2 / count
+            have[t] = True
+        else:
+            G[t, 0] = G[t, 1] = G[t, 2] = 0.0
+    for i in range(G.shape[0]):
+        if status[i] == inside:
+            G[i, 0] = G[i, 1] = G[i, 2] = 0.0
+    return G
+

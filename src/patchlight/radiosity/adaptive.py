@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..atlas.patches import Patches
+from . import _kernels
 
 UNDECIDED, COMPUTED, INTERPOLATED, INSIDE = 0, 1, 2, 3
 SPACING = 4
@@ -98,24 +99,21 @@ def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float) -> np
     return compute
 
 
-def interpolate(G: np.ndarray, status: np.ndarray, phases: list[list[Step]]) -> np.ndarray:
-    """Fill G (N, 3) in place at interpolated texels, in the sampler's order, each the mean
-    of its neighbours. Undecided texels get the mean of whatever neighbours have values
-    (a provisional estimate used while the sampler is still deciding)."""
-    have = (status == COMPUTED) | (status == INTERPOLATED)
-    for phase in phases:
-        for step in phase:
-            todo = status[step.targets] != COMPUTED
-            t, nbs = step.targets[todo], step.neighbours[todo]
-            w = (nbs >= 0) & have[np.maximum(nbs, 0)]
-            count = w.sum(axis=1)
-            mean = (G[np.maximum(nbs, 0)] * w[..., None]).sum(axis=1) / np.maximum(count, 1)[:, None]
-            fill = count > 0
-            G[t[fill]] = mean[fill]
-            G[t[~fill]] = 0.0
-            have[t[fill]] = True
-    G[status == INSIDE] = 0.0
-    return G
+def flatten(phases: list[list[Step]]) -> tuple[np.ndarray, np.ndarray]:
+    """Every step's targets (K,) in the sampler's order, with neighbours (K, 4), -1 padded."""
+    steps = [step for phase in phases for step in phase]
+    if not steps:
+        return np.zeros(0, np.int64), np.zeros((0, 4), np.int64)
+    pad = [np.pad(s.neighbours, ((0, 0), (0, 4 - s.neighbours.shape[1])), constant_values=-1) for s in steps]
+    return np.concatenate([s.targets for s in steps]), np.concatenate(pad)
+
+
+def interpolate(G: np.ndarray, status: np.ndarray, order: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Fill G (N, 3) in place at interpolated texels, in the sampler's order (`flatten`), each
+    the mean of its neighbours. Undecided texels get the mean of whatever neighbours have
+    values (a provisional estimate used while the sampler is still deciding)."""
+    targets, neighbours = order
+    return _kernels.interpolate_in_order(G, status, targets, neighbours, COMPUTED, INTERPOLATED, INSIDE)
 
 
 def debug_image(p: Patches, status: np.ndarray) -> np.ndarray:

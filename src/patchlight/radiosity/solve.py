@@ -42,9 +42,8 @@ class FormFactors:
         """(C, 3) F @ B for the computed rows, in `ids` order."""
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
-        if self.keep:
-            return np.concatenate([F @ B for F in self.blocks]).astype(np.float32)
-        return np.concatenate([self.gatherer.gather(rows).F @ B for rows in self.blocks]).astype(np.float32)
+        matrices = self.blocks if self.keep else (self.gatherer.gather(rows).F for rows in self.blocks)
+        return np.concatenate([F @ B for F in matrices]).astype(np.float32, copy=False)
 
     @property
     def nnz(self) -> int:
@@ -67,15 +66,15 @@ class Solution:
     changes: list[float]
 
 
-def gathered_light(ff: FormFactors, B: np.ndarray, status: np.ndarray, phases) -> np.ndarray:
+def gathered_light(ff: FormFactors, B: np.ndarray, status: np.ndarray, order) -> np.ndarray:
     """G (N, 3) = S + F B at computed patches, interpolated elsewhere."""
     G = np.zeros_like(B)
     G[ff.ids] = ff.S + ff.product(B)
-    return adaptive.interpolate(G, status, phases)
+    return adaptive.interpolate(G, status, order)
 
 
 def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray,
-          status: np.ndarray, phases, passes: int, tolerance: float, B0: np.ndarray | None = None,
+          status: np.ndarray, order, passes: int, tolerance: float, B0: np.ndarray | None = None,
           on_pass=None) -> Solution:
     """Run passes until the largest relative change of I (`relative_change`) is below
     `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass."""
@@ -84,7 +83,7 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     previous, changes = None, []
     I = G = np.zeros_like(direct)
     for k in range(1, passes + 1):
-        G = gathered_light(ff, B, status, phases)
+        G = gathered_light(ff, B, status, order)
         I = direct + G
         I[inside] = 0.0
         B = rho * I + emission
