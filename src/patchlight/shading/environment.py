@@ -39,11 +39,14 @@ def sky_incident(sky) -> tuple[np.ndarray, np.ndarray]:
 
 def light_highlight(directions: np.ndarray, lights: list[PunctualLight], center: np.ndarray) -> np.ndarray:
     """(N,) the highlight the lights make in a mirror at `center` along unit directions (N, 3):
-    sum of luminance(I) saturate(d.L)^HIGHLIGHT_EXPONENT over the lights as seen from there."""
+    sum of luminance(I) saturate(d.L)^HIGHLIGHT_EXPONENT over the lights as seen from there
+    (a point light at the centre itself has no direction and is left out)."""
     out = np.zeros(len(directions), np.float32)
     for light in lights:
-        L, I = incident_light(light, np.asarray(center, np.float32)[None])
-        out += float(I[0] @ _LUMINANCE) * saturate(dot(directions, L[0])) ** HIGHLIGHT_EXPONENT
+        with np.errstate(divide="ignore", invalid="ignore"):
+            L, I = incident_light(light, np.asarray(center, np.float32)[None])
+        if np.all(np.isfinite(L)) and np.all(np.isfinite(I)):
+            out += float(I[0] @ _LUMINANCE) * saturate(dot(directions, L[0])) ** HIGHLIGHT_EXPONENT
     return out
 
 

@@ -103,9 +103,11 @@ def incident_light(light: PunctualLight, P: np.ndarray) -> tuple[np.ndarray, np.
 
 def from_scene_light(light, falloff: str, where: str) -> PunctualLight:
     """A patchlight.scene.model.Light as a PunctualLight. `falloff` is used unless the light
-    names its own; range falloff needs the light's range (`where` names the light in errors)."""
+    names its own; range falloff needs a point or spot light's range (`where` names the light
+    in errors). Directional lights have no falloff."""
     chosen = light.falloff or falloff
-    _check_falloff(chosen, light.range, where)
+    if light.kind != "directional":
+        _check_falloff(chosen, light.range, where)
     direction = np.asarray(normalize(np.asarray(light.direction, np.float64)), np.float32)
     return PunctualLight(kind=light.kind, position=np.asarray(light.position, np.float32), direction=direction,
                          intensity=np.asarray(light.radiometric, np.float32), falloff=chosen,

@@ -114,15 +114,16 @@ class Lighting:
 class Fragments:
     """The interpolated varyings of N covered pixels (surface_fragment.glsl's inputs).
 
-    position (N, 3) world metres; normal (N, 3) interpolated, not yet normalised; tangent (N, 4);
-    uv0, uv1 (N, 2); color (N, 4) vertex colour; material (N,) i32; front (N,) bool, False on
-    the back of a double-sided surface; vertex_lighting: the interpolated per-vertex sum, or None."""
+    position (N, 3) world metres; normal (N, 3) interpolated, not yet normalised; tangent (N, 4)
+    (None unless normal mapping); uv0 (N, 2); uv1 (N, 2) (None unless the lightmap model needs
+    it); color (N, 4) vertex colour; material (N,) i32; front (N,) bool, False on the back of a
+    double-sided surface; vertex_lighting: the interpolated per-vertex sum, or None."""
 
     position: np.ndarray
     normal: np.ndarray
-    tangent: np.ndarray
+    tangent: np.ndarray | None
     uv0: np.ndarray
-    uv1: np.ndarray
+    uv1: np.ndarray | None
     color: np.ndarray
     material: np.ndarray
     front: np.ndarray

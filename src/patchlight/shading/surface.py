@@ -90,6 +90,10 @@ def _any_perpendicular(n: np.ndarray) -> np.ndarray:
 
 
 def interpolate(values: np.ndarray, corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
-    """Barycentric interpolation: values (V, C) at corners (N, 3) with weights bary (N, 3). (N, C)."""
-    return (values[corners[:, 0]] * bary[:, 0:1] + values[corners[:, 1]] * bary[:, 1:2]
-            + values[corners[:, 2]] * bary[:, 2:3]).astype(np.float32)
+    """Barycentric interpolation: values (V, C) at corners (N, 3) with weights bary (N, 3). (N, C) f32."""
+    from ._kernels import interpolate_rows
+
+    out = np.empty((len(corners), values.shape[1]), np.float32)
+    interpolate_rows(np.ascontiguousarray(values, np.float32), np.ascontiguousarray(corners),
+                     np.ascontiguousarray(bary, np.float32), out)
+    return out

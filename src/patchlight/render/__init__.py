@@ -1,0 +1,8 @@
+"""The CPU renderer: Embree camera rays, then the NumPy reference shading (patchlight.shading)."""
+from .camera import Camera, parse_camera
+from .renderer import Renderer, RenderResult
+from .settings import target_settings
+from .target import Target, load_target
+
+__all__ = ["Camera", "RenderResult", "Renderer", "Target", "load_target", "parse_camera",
+           "target_settings"]

@@ -1,0 +1,103 @@
+"""The pinhole camera shared by the CPU renderer and the viewer.
+
+Eye and target in world metres, vertical field of view in degrees, +Y up; one ray through
+the centre of each pixel, row 0 at the top of the image. This is three.js's
+PerspectiveCamera looking at the target with up (0, 1, 0), so both render the same view.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PatchlightError
+
+DEFAULT_FOV = 45.0  # degrees
+_VIEW_DIRECTION = np.array([0.45, 0.35, 0.82])  # default eye offset from the target, before scaling
+INTERIOR_EYE = 0.8  # an interior view's eye sits this fraction of the way from the centre to a wall
+INTERIOR_FOV = 60.0  # degrees
+
+
+@dataclass
+class Camera:
+    """eye, target (3,) metres; fov vertical field of view in degrees, in (0, 180)."""
+
+    eye: np.ndarray
+    target: np.ndarray
+    fov: float = DEFAULT_FOV
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(right, up, forward) unit vectors, float64."""
+        forward = np.asarray(self.target, np.float64) - np.asarray(self.eye, np.float64)
+        length = np.linalg.norm(forward)
+        if not 0 < self.fov < 180:
+            raise PatchlightError(f"--camera: field of view {self.fov} must lie between 0 and 180 degrees")
+        if length == 0:
+            raise PatchlightError("--camera: eye and target are the same point")
+        forward /= length
+        right = np.cross(forward, [0.0, 1.0, 0.0])
+        if np.linalg.norm(right) < 1e-9:
+            raise PatchlightError("--camera: looking straight up or down; +Y is up, so tilt the view a little")
+        right /= np.linalg.norm(right)
+        return right, np.cross(right, forward), forward
+
+    def rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions (height * width, 3) float32, row-major from the top row."""
+        right, up, forward = self.basis()
+        half_h = math.tan(math.radians(self.fov) / 2)
+        half_w = half_h * width / height
+        x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w
+        y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h
+        d = forward + x[None, :, None] * right + y[:, None, None] * up
+        d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(-1, 3).astype(np.float32)
+        return np.broadcast_to(np.asarray(self.eye, np.float32), d.shape), d
+
+    def to_json(self) -> dict:
+        return {"eye": [float(v) for v in self.eye], "target": [float(v) for v in self.target], "fov": float(self.fov)}
+
+
+def parse_camera(values: list[str]) -> Camera:
+    """Camera from `--camera EX,EY,EZ TX,TY,TZ FOV`."""
+    if len(values) != 3:
+        raise PatchlightError("--camera takes three values: EX,EY,EZ TX,TY,TZ FOV")
+    try:
+        eye, target = (np.array([float(x) for x in v.split(",")]) for v in values[:2])
+        fov = float(values[2])
+    except ValueError:
+        raise PatchlightError(f"--camera {' '.join(values)}: expected EX,EY,EZ TX,TY,TZ FOV numbers") from None
+    if eye.shape != (3,) or target.shape != (3,) or not np.all(np.isfinite(np.r_[eye, target, fov])):
+        raise PatchlightError(f"--camera {' '.join(values)}: eye and target need three finite numbers each")
+    camera = Camera(eye, target, fov)
+    camera.basis()
+    return camera
+
+
+def scene_camera(scene) -> Camera | None:
+    """The camera the scene names in extras["camera"] = {eye, target, fov}, or None."""
+    given = scene.extras.get("camera") if isinstance(scene.extras, dict) else None
+    if not given:
+        return None
+    return Camera(np.asarray(given["eye"], np.float64), np.asarray(given["target"], np.float64),
+                  float(given.get("fov", DEFAULT_FOV)))
+
+
+def overview_camera(lo: np.ndarray, hi: np.ndarray) -> Camera:
+    """A three-quarter view from outside the bounds (lo, hi) that fits their sphere in the frame."""
+    center = (np.asarray(lo, np.float64) + hi) / 2
+    radius = max(float(np.linalg.norm(np.asarray(hi, np.float64) - lo)) / 2, 1e-3)
+    distance = radius / math.sin(math.radians(DEFAULT_FOV) / 2) * 1.05
+    offset = _VIEW_DIRECTION / np.linalg.norm(_VIEW_DIRECTION) * distance
+    return Camera(center + offset, center, DEFAULT_FOV)
+
+
+def interior_cameras(lo: np.ndarray, hi: np.ndarray) -> list[Camera]:
+    """Views of an enclosed space from near each of its four walls towards its centre."""
+    center = (np.asarray(lo, np.float64) + hi) / 2
+    half = (np.asarray(hi, np.float64) - lo) / 2
+    cameras = []
+    for axis, sign in ((2, -1), (2, 1), (0, -1), (0, 1)):
+        eye = center.copy()
+        eye[axis] += sign * INTERIOR_EYE * half[axis]
+        cameras.append(Camera(eye, center, INTERIOR_FOV))
+    return cameras

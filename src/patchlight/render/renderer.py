@@ -1,0 +1,205 @@
+"""The CPU renderer: Embree camera rays, then the NumPy reference shading.
+
+Rays go through pixel centres (camera.py). Each hit becomes the varyings the GPU would
+interpolate (surface.py) and is shaded by `patchlight.shading.shade_fragments`. As the
+viewer culls the back faces of single-sided materials, rays pass through them here.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PatchlightError
+from ..rays.tracer import Hits, Tracer
+from ..shading.environment import ENV_SIZE, environment_from_sky, light_highlight
+from ..shading.models import Fragments, Lighting, MaterialTable, ShadingSettings, light_surface, shade_fragments
+from ..shading.surface import interpolate
+from ..shading.terms import normalize
+from ..shading.textures import cube_directions
+from .camera import Camera, interior_cameras, overview_camera, scene_camera
+from .target import Target
+
+INSIDE_FRACTION = 0.5  # above this share of hits on single-sided back faces, the eye is inside geometry
+ENCLOSED_FRACTION = 0.75  # a centre whose probe rays hit this often is in a room (a box open on one side: 5/6)
+PROBE_RAYS = 1024  # rays per probe when choosing a default camera
+MAX_PASS_THROUGH = 16  # single-sided back faces one ray may pass through before it stops
+
+
+@dataclass
+class RenderResult:
+    """radiance (H, W, 3) float32 linear, black where no surface; covered (H, W) bool."""
+
+    radiance: np.ndarray
+    covered: np.ndarray
+
+
+class Renderer:
+    """Renders one Target with any settings and camera; keeps the Embree scene between calls."""
+
+    def __init__(self, target: Target):
+        self.target = target
+        surface = target.surface
+        self.tracer = Tracer(surface.positions, surface.indices)
+        self.double_sided = np.array([m.double_sided for m in target.scene.materials], bool)
+        lo, hi = target.scene.bounds()
+        self.center = ((lo + hi) / 2).astype(np.float32)
+        self._epsilon = np.float32(1e-5 * max(float(np.linalg.norm(hi - lo)), 1e-3))
+        self._vertex_pairs = None
+
+    # ------------------------------------------------------------------ rays
+
+    def trace(self, origins: np.ndarray, directions: np.ndarray, where: str) -> Hits:
+        """Closest visible hit of each ray: back faces of single-sided surfaces are passed
+        through, as the GPU culls them. Raises PatchlightError when most hits start on such
+        back faces: then the eye (`where`) is inside geometry."""
+        hits = self.tracer.intersect(origins, directions)
+        culled = self._culled(hits)
+        share = self._culled_share(hits, culled)
+        if share > INSIDE_FRACTION:
+            raise PatchlightError(f"{where} is inside geometry: {100 * share:.0f}% of its rays that hit a "
+                                  f"surface meet the back of a single-sided one")
+        travelled = np.zeros(len(origins), np.float32)
+        for _ in range(MAX_PASS_THROUGH):
+            redo = np.flatnonzero(culled)
+            if redo.size == 0:
+                break
+            travelled[redo] += hits.t[redo] + self._epsilon
+            again = self.tracer.intersect(origins[redo] + directions[redo] * travelled[redo, None], directions[redo])
+            for name in ("tri", "u", "v", "t", "front"):
+                getattr(hits, name)[redo] = getattr(again, name)
+            culled[:] = False
+            culled[redo] = self._culled(again)
+        hits.tri[culled] = -1
+        return hits
+
+    @staticmethod
+    def _culled_share(hits: Hits, culled: np.ndarray) -> float:
+        n_hit = int(np.count_nonzero(hits.tri >= 0))
+        return float(np.count_nonzero(culled)) / n_hit if n_hit else 0.0
+
+    def default_camera(self) -> Camera:
+        """The scene's own camera; else, when the scene's centre is enclosed (a room, a box
+        open on one side), a view from near a wall that is not inside geometry; else an
+        overview from outside."""
+        camera = scene_camera(self.target.scene)
+        if camera is not None:
+            return camera
+        lo, hi = self.target.scene.bounds()
+        dirs = _sphere_directions(PROBE_RAYS)
+        hits = self.tracer.intersect(np.broadcast_to(self.center, dirs.shape), dirs)
+        hit_share = np.count_nonzero(hits.tri >= 0) / len(dirs)
+        enclosed = hit_share >= ENCLOSED_FRACTION and self._culled_share(hits, self._culled(hits)) <= INSIDE_FRACTION
+        candidates = (interior_cameras(lo, hi) if enclosed else []) + [overview_camera(lo, hi)]
+        for camera in candidates:
+            probe = self.tracer.intersect(*camera.rays(32, 32))
+            if self._culled_share(probe, self._culled(probe)) <= INSIDE_FRACTION:
+                return camera
+        return candidates[-1]
+
+    def _culled(self, hits: Hits) -> np.ndarray:
+        tri = hits.tri
+        hit = tri >= 0
+        single = np.zeros(len(tri), bool)
+        single[hit] = ~self.double_sided[self.target.surface.material_ids[tri[hit]]]
+        return hit & ~hits.front & single
+
+    # ------------------------------------------------------------------ shading
+
+    def fragments(self, hits: Hits, settings: ShadingSettings, eye: np.ndarray, materials: MaterialTable) -> Fragments:
+        """The varyings of the rays that hit (surface_vertex.glsl's outputs, interpolated)."""
+        s = self.target.surface
+        sel = hits.tri >= 0
+        tri = hits.tri[sel]
+        u, v = hits.u[sel], hits.v[sel]
+        bary = np.stack([1 - u - v, u, v], axis=1).astype(np.float32)
+        corners = s.indices[tri]
+        frags = Fragments(position=interpolate(s.positions, corners, bary),
+                          normal=interpolate(s.normals, corners, bary),
+                          tangent=interpolate(s.tangents, corners, bary) if settings.normal_map else None,
+                          uv0=interpolate(s.uv0, corners, bary),
+                          uv1=interpolate(s.uv1, corners, bary) if settings.model == "lightmap" else None,
+                          color=interpolate(s.colors, corners, bary), material=s.material_ids[tri],
+                          front=hits.front[sel])
+        if settings.per_vertex and settings.model != "unlit":
+            lighting, pair_of_corner = self.vertex_lighting(settings, eye, materials)
+            frags.vertex_lighting = lighting.interpolate(pair_of_corner[tri], bary)
+        return frags
+
+    def vertex_lighting(self, settings: ShadingSettings, eye: np.ndarray,
+                        materials: MaterialTable) -> tuple[Lighting, np.ndarray]:
+        """surface_vertex.glsl under PER_VERTEX: the light sum at every (vertex, material) pair
+        (a vertex shared by two materials is lit once with each), and (T, 3) the pair of each
+        triangle corner."""
+        s = self.target.surface
+        if self._vertex_pairs is None:
+            n_mat = max(len(materials.shininess), 1)
+            keys = s.indices.astype(np.int64) * n_mat + s.material_ids[:, None]
+            unique, inverse = np.unique(keys, return_inverse=True)
+            self._vertex_pairs = (unique // n_mat, unique % n_mat, inverse.reshape(s.indices.shape))
+        vertex, material, pair_of_corner = self._vertex_pairs
+        P = s.positions[vertex]
+        N = normalize(s.normals[vertex])
+        V = normalize(np.asarray(eye, np.float32) - P)
+        lighting = light_surface(settings, P, N, V, np.float32(1.0), materials.shininess[material],
+                                 materials.reflectivity[material])
+        return lighting, pair_of_corner
+
+    def shade_rays(self, settings: ShadingSettings, origins: np.ndarray, directions: np.ndarray, where: str,
+                   env: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Radiance (N, 3) and covered (N,) along rays that all start at origins[0]."""
+        settings.validate()
+        eye = np.asarray(origins[0], np.float32)
+        self.require_inputs(settings)
+        if settings.model == "envmap" and env is None:
+            env = self.environment(settings)
+        materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
+        hits = self.trace(origins, directions, where)
+        frags = self.fragments(hits, settings, eye, materials)
+        radiance = np.zeros((len(origins), 3), np.float32)
+        radiance[hits.tri >= 0] = shade_fragments(settings, frags, materials, eye, self.target.lightmap, env)
+        return radiance, hits.tri >= 0
+
+    def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int,
+               env: np.ndarray | None = None) -> RenderResult:
+        """Linear radiance seen by `camera` on a width x height image."""
+        origins, directions = camera.rays(width, height)
+        where = "the camera at ({:g}, {:g}, {:g})".format(*camera.eye)
+        radiance, covered = self.shade_rays(settings, origins, directions, where, env)
+        return RenderResult(radiance.reshape(height, width, 3), covered.reshape(height, width))
+
+    def require_inputs(self, settings: ShadingSettings) -> None:
+        """PatchlightError when the model needs data the target lacks."""
+        if settings.model == "lightmap" and self.target.lightmap is None:
+            raise PatchlightError(f"{self.target.name}: --model lightmap needs a bake directory with "
+                                  f"lightmap.exr (write one with `patchlight bake`)")
+
+    # ------------------------------------------------------------------ environment
+
+    def environment(self, settings: ShadingSettings, from_point=None, size: int = ENV_SIZE) -> np.ndarray:
+        """The envmap model's cube map (6, size, size, 4): from the sky when the scene has one
+        and no point is given, else rendered from `from_point` (default: the scene's centre)
+        with the lightmap model (a bake) or Lambert, the sky or black behind. A holds the
+        lights' highlight seen from the point."""
+        scene = self.target.scene
+        point = self.center if from_point is None else np.asarray(from_point, np.float32)
+        if from_point is None and scene.sky is not None:
+            return environment_from_sky(scene.sky, settings.lights, point, size)
+        dirs = cube_directions(size).reshape(-1, 3)
+        inner = ShadingSettings(**{**settings.__dict__, "per_vertex": False, "normal_map": False,
+                                   "model": "lightmap" if self.target.lightmap is not None else "lambert"})
+        where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
+        radiance, covered = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
+        if scene.sky is not None:
+            radiance[~covered] = scene.sky.radiance(dirs[~covered])
+        alpha = light_highlight(dirs, settings.lights, point)
+        return np.concatenate([radiance, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)
+
+
+def _sphere_directions(n: int) -> np.ndarray:
+    """(n, 3) float32 unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
+    i = np.arange(n) + 0.5
+    y = 1 - 2 * i / n
+    r = np.sqrt(1 - y * y)
+    phi = i * np.pi * (3 - np.sqrt(5))
+    return np.stack([r * np.cos(phi), y, r * np.sin(phi)], axis=1).astype(np.float32)

@@ -1,0 +1,97 @@
+"""`patchlight render`: outputs, and one clear line with status 2 for bad input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from render_scenes import showcase_scene
+
+from patchlight.cli.main import main
+from patchlight.imaging.exposure import exposed_png_pixels
+from patchlight.imaging.io import read_exr, read_image, write_exr
+from patchlight.render import Camera, Renderer, load_target, target_settings
+from patchlight.scene.gltf import save_baked_glb
+
+CAMERA = ["3.2,2.0,4.2", "0.2,-0.3,0.0", "40"]
+
+
+@pytest.fixture(scope="module")
+def scene_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("scene") / "showcase.glb"
+    save_baked_glb(showcase_scene(12, 24), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def bake_dir(tmp_path_factory, scene_file):
+    """A bake directory as `patchlight bake` leaves it: scene.glb with TEXCOORD_1 and lightmap.exr."""
+    out = tmp_path_factory.mktemp("bake")
+    (out / "scene.glb").write_bytes(scene_file.read_bytes())
+    lightmap = np.full((8, 8, 3), 0.25, np.float32)
+    lightmap[:, 4:] = 1.0
+    write_exr(out / "lightmap.exr", lightmap)
+    return out
+
+
+def test_exr_holds_the_renderers_linear_radiance_and_png_its_exposed_picture(scene_file, tmp_path, capsys):
+    exr, png = tmp_path / "out.exr", tmp_path / "out.png"
+    common = [str(scene_file), "--model", "phong", "--camera", *CAMERA, "--size", "40x30"]
+    assert main(["render", *common, "-o", str(exr)]) == 0
+    assert main(["render", *common, "--exposure", "0.7", "-o", str(png)]) == 0
+    target = load_target(str(scene_file))
+    camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
+    expected = Renderer(target).render(target_settings(target, model="phong"), camera, 40, 30).radiance
+    np.testing.assert_array_equal(read_exr(exr), expected)
+    picture = np.round(read_image(png) * 255).astype(np.uint8)
+    np.testing.assert_array_equal(picture, exposed_png_pixels(expected, 0.7))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.exr", "out.png"]
+    assert "exposure 0.7" in capsys.readouterr().out
+
+
+def test_lightmap_model_reads_a_bake_directory(bake_dir, tmp_path):
+    out = tmp_path / "lm.exr"
+    assert main(["render", str(bake_dir), "--model", "lightmap", "--camera", *CAMERA, "--size", "32x32",
+                 "--specular", "-o", str(out)]) == 0
+    image = read_exr(out)
+    assert image.shape == (32, 32, 3) and image.max() > 0
+
+
+def test_lights_from_the_command_line_replace_the_scenes(scene_file, tmp_path):
+    dark, lit = tmp_path / "dark.exr", tmp_path / "lit.exr"
+    base = [str(scene_file), "--model", "lambert", "--camera", *CAMERA, "--size", "24x24", "--ambient", "0,0,0"]
+    assert main(["render", *base, "--light", "point:0,5,0:1,1,1:0", "-o", str(dark)]) == 0
+    assert main(["render", *base, "--light", "point:0,5,0:1,1,1:50:9", "--falloff", "range", "-o", str(lit)]) == 0
+    assert read_exr(dark)[..., :].max() == pytest.approx(0.0, abs=0.06)  # only the box's faint emission
+    assert read_exr(lit).max() > 0.5
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--model", "toon"], "invalid choice"),
+    (["--normal-map", "--per-vertex"], "per-pixel"),
+    (["--light", "lamp:0,0,0:1,1,1:1"], "unknown light kind"),
+    (["--light", "point:0,1,0:1,1,1:5", "--falloff", "range"], "needs a range"),
+    (["--model", "lightmap"], "lightmap"),
+    (["--camera", "0,0,0", "0,0,-1", "45"], "inside geometry"),
+    (["--camera", "0,0,5", "0,0,0"], "expected 3 arguments"),
+    (["--size", "0x10"], "1.."),
+    (["--exposure", "-1"], "--exposure"),
+    (["--reflectivity", "2"], "--reflectivity"),
+])
+def test_bad_input_is_one_line_and_status_2(scene_file, tmp_path, capsys, args, message):
+    out = tmp_path / "x.png"
+    status = main(["render", str(scene_file), "--size", "8x8", *args, "-o", str(out)]) if "--size" not in args \
+        else main(["render", str(scene_file), *args, "-o", str(out)])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert message in err and err.count("\n") == 1
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_bad_targets_and_outputs(tmp_path, capsys):
+    cases = [(["render", str(tmp_path), "-o", str(tmp_path / "a.png")], "not a bake"),
+             (["render", "room", "-o", str(tmp_path / "a.jpg")], ".png"),
+             (["render", "room", "-o", str(tmp_path / "missing" / "a.png")], "does not exist"),
+             (["render", "room", "--normal-map", "-o", str(tmp_path / "a.png")], "normal texture")]
+    for argv, message in cases:
+        assert main(argv) == 2
+        assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

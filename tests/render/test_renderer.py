@@ -1,0 +1,104 @@
+"""The CPU renderer's camera, culling, inside-geometry check and default camera."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from render_scenes import _box, _quad, scene_from_parts, showcase_target, sphere_target
+
+from patchlight.errors import PatchlightError
+from patchlight.render import Camera, Renderer, Target, target_settings
+from patchlight.scene.model import Light, Material
+
+
+def test_rays_go_through_pixel_centres_with_the_vertical_fov_and_row_zero_on_top():
+    camera = Camera(np.array([0.0, 0.0, 5.0]), np.zeros(3), 90.0)
+    _, d = camera.rays(3, 3)
+    np.testing.assert_allclose(d[4], [0, 0, -1], atol=1e-7)  # centre pixel looks at the target
+    # top-left pixel centre: x = -2/3 tan(45), y = +2/3 tan(45) at unit distance
+    np.testing.assert_allclose(d[0], np.array([-2 / 3, 2 / 3, -1]) / np.linalg.norm([2 / 3, 2 / 3, 1]), atol=1e-7)
+    _, wide = Camera(np.array([0.0, 0.0, 5.0]), np.zeros(3), 60.0).rays(4, 2)
+    assert np.arctan2(wide[0, 1], -wide[0, 2]) == pytest.approx(math.atan(0.5 * math.tan(math.radians(30))))
+
+
+@pytest.mark.parametrize("bad", [dict(fov=0.0), dict(fov=180.0), dict(eye=np.zeros(3)),
+                                 dict(eye=np.array([0.0, 5.0, 0.0]))])
+def test_impossible_cameras_are_refused(bad):
+    args = dict(eye=np.array([0.0, 0.0, 5.0]), target=np.zeros(3), fov=45.0) | bad
+    with pytest.raises(PatchlightError):
+        Camera(**args).rays(4, 4)
+
+
+def plane_target(double_sided: bool) -> Target:
+    plane = _quad([[-2, 0, 2], [2, 0, 2], [2, 0, -2], [-2, 0, -2]], [0, 1, 0])
+    mat = Material(base_color=np.ones(4, np.float32), double_sided=double_sided)
+    lamp = Light("point", np.ones(3, np.float32), 10.0, position=np.array([0.0, -1.0, 0.0], np.float32))
+    return Target.from_scene(scene_from_parts([plane], [mat], [0], [lamp]))
+
+
+def test_single_sided_back_faces_are_culled_and_double_sided_ones_lit_from_behind():
+    below = Camera(np.array([0.3, -3.0, 0.5]), np.zeros(3), 40.0)
+    settings = dict(model="lambert", ambient=(0, 0, 0))
+    single = plane_target(False)
+    with pytest.raises(PatchlightError, match="inside geometry"):
+        Renderer(single).render(target_settings(single, **settings), below, 16, 16)
+    double = plane_target(True)
+    result = Renderer(double).render(target_settings(double, **settings), below, 16, 16)
+    assert result.covered.all()
+    assert result.radiance.min() > 0  # the lamp below lights the flipped normal
+
+
+def test_rays_pass_through_culled_back_faces_to_what_lies_behind():
+    """A single-sided quad facing away from the camera hides nothing in front of a second one."""
+    back = _quad([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [0, 0, 1])
+    front_facing_away = _quad([[-0.3, 0.3, 1], [0.3, 0.3, 1], [0.3, -0.3, 1], [-0.3, -0.3, 1]], [0, 0, -1])
+    mats = [Material(name="back", base_color=np.array([1, 0, 0, 1], np.float32)),
+            Material(name="away", base_color=np.array([0, 1, 0, 1], np.float32))]
+    target = Target.from_scene(scene_from_parts([back, front_facing_away], mats, [0, 1]))
+    result = Renderer(target).render(target_settings(target, model="unlit"),
+                                     Camera(np.array([0.0, 0.0, 3.0]), np.zeros(3), 30.0), 15, 15)
+    assert result.covered[7, 7]
+    np.testing.assert_allclose(result.radiance[7, 7], [1, 0, 0])
+
+
+def test_camera_inside_a_closed_sphere_is_refused_in_one_line():
+    target = sphere_target(8, 16)
+    with pytest.raises(PatchlightError) as err:
+        Renderer(target).render(target_settings(target), Camera(np.zeros(3), np.array([0, 0, -1.0])), 8, 8)
+    assert "inside geometry" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_lightmap_model_needs_a_lightmap():
+    target = sphere_target(8, 16)
+    with pytest.raises(PatchlightError, match="lightmap"):
+        Renderer(target).render(target_settings(target, model="lightmap"),
+                                Camera(np.array([0.0, 0.0, 4.0]), np.zeros(3)), 8, 8)
+
+
+def test_default_camera_sees_an_object_from_outside_and_a_room_from_inside():
+    obj = showcase_target()
+    camera = Renderer(obj).default_camera()
+    lo, hi = obj.scene.bounds()
+    assert np.any(camera.eye < lo) or np.any(camera.eye > hi)
+    covered = Renderer(obj).render(target_settings(obj), camera, 32, 32).covered
+    assert 0.1 < covered.mean() < 0.95
+    walls = Material(name="walls", base_color=np.ones(4, np.float32))
+    room = Target.from_scene(scene_from_parts(_box([0, 0, 0], [6, 3, 4]), [walls], [0] * 6))
+    # turn the box inside out: faces towards the interior
+    room.scene.indices = room.scene.indices[:, ::-1].copy()
+    room = Target.from_scene(room.scene)
+    camera = Renderer(room).default_camera()
+    assert np.all(camera.eye > 0) and np.all(camera.eye < [6, 3, 4])
+    assert Renderer(room).render(target_settings(room), camera, 16, 16).covered.all()
+
+
+def test_every_model_and_option_renders_the_showcase():
+    target = showcase_target(12, 24)
+    renderer = Renderer(target)
+    camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
+    from patchlight.shading import MODELS
+    for model in MODELS:
+        for options in ({}, {"per_vertex": True}, {"normal_map": True}, {"falloff": "range"}):
+            result = renderer.render(target_settings(target, model=model, **options), camera, 24, 24)
+            assert np.isfinite(result.radiance).all() and result.radiance[result.covered].max() > 0
