@@ -25,8 +25,9 @@ from .scene.model import Scene
 
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
 DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
-REFINE_PASSES = 100         # the sampler decides on a converged solution, whatever --passes says,
-REFINE_TOLERANCE = 1e-2     # converged well inside its 2 % .. 8 % thresholds
+REFINE_TOLERANCE = 1e-2     # the sampler first decides on a solution converged well inside its
+REFINE_FIRST_PASSES = 100   # 2-8 % thresholds (at most this many passes), then updates it,
+REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
 
 
 @dataclass
@@ -76,8 +77,9 @@ def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, sett
         _compute(ff, grid, status, advance)
         B = None
         for phase in phases:
+            passes = REFINE_FIRST_PASSES if B is None else REFINE_PASSES
             solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                             REFINE_PASSES, max(settings.tolerance, REFINE_TOLERANCE), B)
+                             passes, max(settings.tolerance, REFINE_TOLERANCE), B)
             B, G = solution.excident, solution.gathered
             for step in phase:
                 _compute(ff, adaptive.decide(step, status, G, settings.accuracy), status, advance)

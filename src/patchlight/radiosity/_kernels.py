@@ -109,3 +109,74 @@ def interpolate_in_order(G, status, targets, neighbours, computed, interpolated,
             G[i, 0] = G[i, 1] = G[i, 2] = 0.0
     return G
 
+
+
+@nb.njit(cache=True)
+def item_buffer_rows(seen, weights, sky_radiance):
+    """Turn the item buffer of R patches x D rays into their form-factor rows.
+
+    seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
+    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
+    Returns CSR (indptr (R+1,), indices, data) with duplicate columns summed, the sky term
+    (R, 3) and the share of each patch's rays that hit back faces (R,).
+    """
+    d = weights.shape[0]
+    rows = seen.shape[0] // d
+    indptr = np.zeros(rows + 1, np.int64)
+    indices = np.empty(seen.shape[0], np.int32)
+    data = np.empty(seen.shape[0], np.float32)
+    sky = np.zeros((rows, 3), np.float32)
+    back = np.zeros(rows, np.float32)
+    ids = np.empty(d, np.int32)
+    wts = np.empty(d, np.float32)
+    nnz = 0
+    k_sky = 0
+    for r in range(rows):
+        m = 0
+        for j in range(d):
+            s = seen[r * d + j]
+            if s >= 0:
+                ids[m] = s
+                wts[m] = weights[j]
+                m += 1
+            elif s == SKY:
+                for c in range(3):
+                    sky[r, c] += weights[j] * sky_radiance[k_sky, c]
+                k_sky += 1
+            elif s == BACK_FACE:
+                back[r] += 1.0
+        order = np.argsort(ids[:m])
+        last = -1
+        for k in order:
+            if ids[k] == last:
+                data[nnz - 1] += wts[k]
+            else:
+                last = ids[k]
+                indices[nnz] = last
+                data[nnz] = wts[k]
+                nnz += 1
+        indptr[r + 1] = nnz
+        back[r] /= d
+    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back
+
+
+@nb.njit(cache=True, parallel=True)
+def csr_times_rgb(indptr, indices, data, B):
+    """(R, 3) f32 product of a CSR matrix (R x N, f32) with B (N, 3) f32, rows over the cores.
+    Accumulates in f32: rows hold a few hundred terms, far inside its precision."""
+    rows = indptr.shape[0] - 1
+    out = np.zeros((rows, 3), np.float32)
+    for r in nb.prange(rows):
+        a0 = np.float32(0.0)
+        a1 = np.float32(0.0)
+        a2 = np.float32(0.0)
+        for k in range(indptr[r], indptr[r + 1]):
+            w = data[k]
+            c = indices[k]
+            a0 += w * B[c, 0]
+            a1 += w * B[c, 1]
+            a2 += w * B[c, 2]
+        out[r, 0] = a0
+        out[r, 1] = a1
+        out[r, 2] = a2
+    return out

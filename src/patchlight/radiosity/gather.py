@@ -80,19 +80,12 @@ class Gatherer:
         hits = self.tracer.intersect(origins, dirs)
         seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
                                      p.width, p.height, p.index)
-        row_of_ray = np.repeat(np.arange(len(rows)), d)
-        weight = np.tile(self.weights, len(rows))
-        S = np.zeros((len(rows), 3), np.float32)
         sky = seen == _kernels.SKY
-        if self.sky is not None and sky.any():
-            radiance = self.sky.radiance(dirs[sky]) * weight[sky, None]
-            for c in range(3):
-                S[:, c] = np.bincount(row_of_ray[sky], radiance[:, c], minlength=len(rows))
-        patch = seen >= 0
-        F = sp.csr_matrix((weight[patch], (row_of_ray[patch], seen[patch])),
-                          shape=(len(rows), len(p)), dtype=np.float32)
-        F.sum_duplicates()
-        back = np.bincount(row_of_ray[seen == _kernels.BACK_FACE], minlength=len(rows)) / d
+        radiance = np.zeros((int(sky.sum()), 3), np.float32)
+        if self.sky is not None and len(radiance):
+            radiance = self.sky.radiance(dirs[sky]).astype(np.float32)
+        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(p)))
         if progress is not None:
             progress(len(rows))
-        return GatherRows(F, S, back.astype(np.float32), int(np.count_nonzero(seen == _kernels.LOST)))
+        return GatherRows(F, S, back, int(np.count_nonzero(seen == _kernels.LOST)))

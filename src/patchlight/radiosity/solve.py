@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import adaptive
+from . import _kernels, adaptive
 from .gather import Gatherer
 
 
@@ -43,7 +43,8 @@ class FormFactors:
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
         matrices = self.blocks if self.keep else (self.gatherer.gather(rows).F for rows in self.blocks)
-        return np.concatenate([F @ B for F in matrices]).astype(np.float32, copy=False)
+        B = np.ascontiguousarray(B, np.float32)
+        return np.concatenate([_kernels.csr_times_rgb(F.indptr, F.indices, F.data, B) for F in matrices])
 
     @property
     def nnz(self) -> int:
