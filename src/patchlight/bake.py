@@ -107,6 +107,17 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) ->
     return image
 
 
+def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray, status: np.ndarray) -> np.ndarray:
+    """(N, 3) incident light with only its gathered part denoised (by OIDN, over the filled
+    lightmap image): ray-traced direct light and its sharp shadows stay as they are."""
+    from .imaging.denoise import denoise_lightmap
+
+    clean = denoise_lightmap(fill_lightmap(patches, gathered, status))[patches.texel_y, patches.texel_x]
+    incident = direct + clean
+    incident[status == adaptive.INSIDE] = 0.0
+    return incident
+
+
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
     from .atlas.raster import rasterize
@@ -151,7 +162,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             solution = solve(ff, direct, patches.rho, patches.emission, status, order,
                              settings.passes, settings.tolerance, on_pass=on_pass)
         with progress.stage("lightmap"):
-            lightmap = fill_lightmap(patches, solution.incident, status)
+            incident = solution.incident
+            if settings.denoise:
+                incident = denoised_incident(patches, direct, solution.gathered, status)
+            lightmap = fill_lightmap(patches, incident, status)
     counts = np.bincount(status, minlength=4)
     stats = {
         "resolution": [width, height],

@@ -7,7 +7,7 @@
 | padding           | texels        | 2              | gap between UV charts (>= 2)                                    |
 | gather            | str           | "stratified"   | "hemicube" or "stratified" (measured faster to a given error)   |
 | hemicube_size     | pixels        | 32             | front face N x N, even (8..512; 32-128)                         |
-| rays              | rays / patch  | 256            | stratified rays, rounded down to a square (16..16384; 256)      |
+| rays              | rays / patch  | 512            | stratified rays, rounded down to an a x b grid (16..16384; 512) |
 | passes            | count         | 100            | upper bound on passes (1 = direct + sky only)                   |
 | tolerance         | ratio         | 1e-3           | stop when the largest relative change of a pass is below        |
 | adaptive          | bool          | True           | compute every 4th texel, refine where neighbours differ         |
@@ -18,7 +18,7 @@
 | exposure          | 1 / radiance  | "auto"         | PNG = 1 - exp(-k I); auto puts the 90th percentile at 0.8       |
 | max_memory        | bytes         | 8 GiB          | above this the form-factor matrix is not kept: re-gather a pass |
 | seed              | int           | 1              | random rotation of the stratified pattern per patch             |
-| denoise           | bool          | False          | run Intel OIDN on the final lightmap                            |
+| denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ class BakeSettings:
     padding: int = 2
     gather: str = "stratified"
     hemicube_size: int = 32
-    rays: int = 256
+    rays: int = 512
     passes: int = 100
     tolerance: float = 1e-3
     adaptive: bool = True

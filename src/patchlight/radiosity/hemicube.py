@@ -72,17 +72,18 @@ def delta_form_factors(n: int) -> np.ndarray:
 
 
 def stratified_directions(rays: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """`rays` cosine-weighted directions (local frame), one per cell of a jittered s x s grid
-    on the unit square mapped through the concentric disk, with equal weights 1/rays.
-    rays is rounded down to a square."""
-    s = max(1, int(np.sqrt(rays)))
-    i, j = np.meshgrid(np.arange(s), np.arange(s), indexing="ij")
-    u = (i.ravel() + rng.random(s * s)) / s
-    v = (j.ravel() + rng.random(s * s)) / s
+    """About `rays` cosine-weighted directions (local frame), one per cell of a jittered
+    a x b grid on the unit square (a = floor(sqrt(rays)), b = rays // a) mapped through the
+    concentric disk, with equal weights 1 / (a b)."""
+    a = max(1, int(np.sqrt(rays)))
+    b = max(1, rays // a)
+    i, j = np.meshgrid(np.arange(a), np.arange(b), indexing="ij")
+    u = (i.ravel() + rng.random(a * b)) / a
+    v = (j.ravel() + rng.random(a * b)) / b
     x, y = concentric_disk(u, v)
     z = np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))
     dirs = np.stack([x, y, z], 1).astype(np.float32)
-    return dirs, np.full(s * s, 1.0 / (s * s), np.float32)
+    return dirs, np.full(a * b, 1.0 / (a * b), np.float32)
 
 
 def concentric_disk(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
