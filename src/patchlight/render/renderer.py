@@ -180,11 +180,11 @@ class Renderer:
         """The envmap model's cube map (6, size, size, 4): from the sky when the scene has one
         and no point is given, else rendered from `from_point` (default: the scene's centre)
         with the lightmap model (a bake) or Lambert, the sky or black behind. A holds the
-        lights' highlight seen from the point."""
+        suns' highlight (shading.environment.light_highlight)."""
         scene = self.target.scene
         point = self.center if from_point is None else np.asarray(from_point, np.float32)
         if from_point is None and scene.sky is not None:
-            return environment_from_sky(scene.sky, settings.lights, point, size)
+            return environment_from_sky(scene.sky, settings.lights, size)
         dirs = cube_directions(size).reshape(-1, 3)
         inner = ShadingSettings(**{**settings.__dict__, "per_vertex": False, "normal_map": False,
                                    "model": "lightmap" if self.target.lightmap is not None else "lambert"})
@@ -192,7 +192,7 @@ class Renderer:
         radiance, covered = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
         if scene.sky is not None:
             radiance[~covered] = scene.sky.radiance(dirs[~covered])
-        alpha = light_highlight(dirs, settings.lights, point)
+        alpha = light_highlight(dirs, settings.lights)
         return np.concatenate([radiance, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)
 
 

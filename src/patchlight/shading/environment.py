@@ -3,8 +3,8 @@
 - `sky_incident(sky)`: the incident light I (DESIGN.md) of an up-facing and a down-facing patch
   under the sky: the hemisphere model's sky and ground colours, exact at the two poles. Their
   mean is the ambient colour: the hemisphere term averaged over all normal directions.
-- `environment_from_sky(sky, lights, center, size)`: the envmap model's cube map: RGB the sky's
-  radiance, A the lights' specular highlight (`light_highlight`), as the article's cube map
+- `environment_from_sky(sky, lights, size)`: the envmap model's cube map: RGB the sky's
+  radiance, A the suns' specular highlight (`light_highlight`), as the article's cube map
   keeps "a specular highlight in the alpha channel".
 """
 from __future__ import annotations
@@ -37,22 +37,23 @@ def sky_incident(sky) -> tuple[np.ndarray, np.ndarray]:
     return result[0], result[1]
 
 
-def light_highlight(directions: np.ndarray, lights: list[PunctualLight], center: np.ndarray) -> np.ndarray:
-    """(N,) the highlight the lights make in a mirror at `center` along unit directions (N, 3):
-    sum of luminance(I) saturate(d.L)^HIGHLIGHT_EXPONENT over the lights as seen from there
-    (a point light at the centre itself has no direction and is left out)."""
+def light_highlight(directions: np.ndarray, lights: list[PunctualLight]) -> np.ndarray:
+    """(N,) the suns' highlight in a mirror, along unit directions (N, 3): the sum over
+    directional lights of luminance(I) saturate(d.L)^HIGHLIGHT_EXPONENT. Like the article's
+    static cube map it holds only light from infinitely far away, so it does not depend on
+    where the map is seen from, and point lights (whose direction does) are left out."""
     out = np.zeros(len(directions), np.float32)
+    origin = np.zeros((1, 3), np.float32)
     for light in lights:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            L, I = incident_light(light, np.asarray(center, np.float32)[None])
-        if np.all(np.isfinite(L)) and np.all(np.isfinite(I)):
+        if light.kind == "directional":
+            L, I = incident_light(light, origin)
             out += float(I[0] @ _LUMINANCE) * saturate(dot(directions, L[0])) ** HIGHLIGHT_EXPONENT
     return out
 
 
-def environment_from_sky(sky, lights: list[PunctualLight], center, size: int = ENV_SIZE) -> np.ndarray:
+def environment_from_sky(sky, lights: list[PunctualLight], size: int = ENV_SIZE) -> np.ndarray:
     """(6, size, size, 4) float32 cube map: RGB sky radiance (black without a sky), A highlight."""
     dirs = cube_directions(size).reshape(-1, 3)
     rgb = sky.radiance(dirs) if sky is not None else np.zeros((len(dirs), 3), np.float32)
-    alpha = light_highlight(dirs, lights, center)
+    alpha = light_highlight(dirs, lights)
     return np.concatenate([rgb, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)

@@ -1,0 +1,61 @@
+"""`patchlight view SCENE_OR_BAKE_DIR [--port N]`: the runtime lighting models in the browser.
+
+Serves the viewer on 127.0.0.1 only (a free port unless --port), prints the address and
+runs until Ctrl-C. The page runs the same GLSL chunks the CPU renderer's reference mirrors."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import PatchlightError
+from ..shading.models import MODELS
+from .render import add_shading_options, load_target_and_settings, parse_exposure, parse_point
+
+
+def port_number(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        port = -1
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number 0..65535, got {text!r}")
+    return port
+
+
+def register(sub) -> None:
+    p = sub.add_parser("view", help="serve the web viewer for a scene or bake", description=__doc__)
+    p.add_argument("target", metavar="SCENE_OR_BAKE_DIR",
+                   help="a .glb/.gltf file, a built-in scene (room, cornell) or a bake directory")
+    p.add_argument("--port", type=port_number, default=0, help="port on 127.0.0.1 (default: a free one)")
+    p.add_argument("--model", choices=MODELS, default=None,
+                   help="model shown first (default: lightmap for a bake, else lambert)")
+    p.add_argument("--exposure", default="auto", metavar="K", help="initial exposure K, or auto")
+    p.add_argument("--envmap-from", metavar="X,Y,Z", help="render the envmap's cube map from this point")
+    add_shading_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..viewer.app import make_server
+
+    exposure = parse_exposure(args.exposure)
+    envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
+    model = args.model or _default_model(args.target)
+    target, settings = load_target_and_settings(args, model)
+    if settings.model == "lightmap" and target.lightmap is None:
+        raise PatchlightError(f"{target.name}: --model lightmap needs a bake directory with lightmap.exr")
+    server = make_server(target, settings, args.port, exposure, envmap_from)
+    print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        print("\npatchlight viewer stopped")
+    finally:
+        server.httpd.server_close()
+    return 0
+
+
+def _default_model(spec: str) -> str:
+    """lightmap for a bake directory with lightmap.exr, else lambert."""
+    path = Path(spec)
+    return "lightmap" if path.is_dir() and (path / "lightmap.exr").is_file() else "lambert"

@@ -1,0 +1,101 @@
+"""The scene as the viewer page reads it: a JSON manifest and one binary of arrays.
+
+Both come from the same Target and ShadingSettings the CPU renderer uses, so the page draws
+exactly the arrays (normals, tangents, UVs, linear float textures, lightmap, environment
+cube) that the reference shades. Arrays are little-endian float32 (indices uint32), each at a
+4-byte-aligned offset into data.bin; the manifest names them:
+
+    arrays:    {name: {offset (bytes), shape, dtype}}
+    groups:    [{start, count, material}]  index ranges of data.bin's "indices", by material
+    materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
+                 color_map, emissive_map, normal_map}]   (map values: array names or null)
+    lights, settings, camera, bounds, lightmap, env, pictures, max_lights
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..render.camera import Camera
+from ..render.target import Target
+from ..shading.lights import MAX_LIGHTS
+from ..shading.models import ShadingSettings
+
+
+class _Packer:
+    def __init__(self):
+        self.parts: list[bytes] = []
+        self.offset = 0
+        self.arrays: dict[str, dict] = {}
+
+    def add(self, name: str, array: np.ndarray, dtype=np.float32) -> str:
+        data = np.ascontiguousarray(array, dtype)
+        self.arrays[name] = {"offset": self.offset, "shape": list(data.shape), "dtype": np.dtype(dtype).name}
+        raw = data.astype(data.dtype.newbyteorder("<"), copy=False).tobytes()
+        self.parts.append(raw)
+        self.offset += len(raw)
+        return name
+
+    def add_texture(self, name: str, image: np.ndarray | None) -> str | None:
+        """(H, W, C) float image as (H, W, 4) RGBA float32 (alpha 1 where C < 4)."""
+        if image is None:
+            return None
+        h, w = image.shape[:2]
+        rgba = np.ones((h, w, 4), np.float32)
+        rgba[..., :image.shape[2]] = image[..., :4]
+        return self.add(name, rgba)
+
+
+def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env: np.ndarray,
+                 exposure: float) -> tuple[dict, bytes]:
+    """(manifest, data) for the page: see the module docstring."""
+    s = target.surface
+    pack = _Packer()
+    for name in ("positions", "normals", "tangents", "uv0", "uv1", "colors"):
+        pack.add(name, getattr(s, name))
+    order = np.argsort(s.material_ids, kind="stable")
+    pack.add("indices", s.indices[order], np.uint32)
+    sorted_ids = s.material_ids[order]
+    groups = []
+    for m in np.unique(sorted_ids):
+        rows = np.flatnonzero(sorted_ids == m)
+        groups.append({"start": int(rows[0]) * 3, "count": len(rows) * 3, "material": int(m)})
+    materials = []
+    for i, m in enumerate(target.scene.materials):
+        materials.append({
+            "name": m.name, "base_color": _floats(m.base_color), "emissive": _floats(m.emissive),
+            "shininess": float(m.shininess), "reflectivity": float(m.reflectivity),
+            "double_sided": bool(m.double_sided),
+            "color_map": pack.add_texture(f"color_map_{i}", m.base_color_texture),
+            "emissive_map": pack.add_texture(f"emissive_map_{i}", m.emissive_texture),
+            "normal_map": pack.add_texture(f"normal_map_{i}", m.normal_texture),
+        })
+    lo, hi = target.scene.bounds()
+    manifest = {
+        "name": target.name,
+        "arrays": pack.arrays,
+        "groups": groups,
+        "materials": materials,
+        "lights": [light.to_json() for light in settings.lights[:MAX_LIGHTS]],
+        "lights_dropped": max(0, len(settings.lights) - MAX_LIGHTS),
+        "settings": {"model": settings.model, "ambient": _floats(settings.ambient), "sky": _floats(settings.sky),
+                     "ground": _floats(settings.ground), "per_vertex": settings.per_vertex,
+                     "normal_map": settings.normal_map, "lightmap_specular": settings.lightmap_specular,
+                     "reflectivity": settings.reflectivity, "exposure": float(exposure)},
+        "camera": camera.to_json(),
+        "bounds": [_floats(lo), _floats(hi)],
+        "lightmap": pack.add_texture("lightmap", target.lightmap),
+        "env": pack.add("env", env),
+        "pictures": target.bake_pictures(),
+        "max_lights": MAX_LIGHTS,
+    }
+    return manifest, b"".join(pack.parts)
+
+
+def manifest_bytes(manifest: dict) -> bytes:
+    return json.dumps(manifest, separators=(",", ":")).encode()
+
+
+def _floats(v) -> list[float]:
+    return [float(x) for x in np.asarray(v).reshape(-1)]

@@ -1,0 +1,154 @@
+"""The viewer's local web server: 127.0.0.1 only, GET and HEAD only, a fixed set of files.
+
+It serves the page (static/), the GLSL chunks (patchlight/shaders/*.glsl), the three.js
+build files the page imports (from the repository's node_modules/three), the scene bundle
+(/scene/manifest.json, /scene/data.bin) and the bake's lightmap-space pictures
+(/scene/files/<name>). Any other path (.., absolute paths, encoded traversal, symlinks that
+lead out of the served directory, files not on the list) gets 404.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import threading
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+from urllib.parse import unquote, urlsplit
+
+from ..errors import PatchlightError
+
+HOST = "127.0.0.1"
+STATIC = Path(__file__).resolve().parent / "static"
+SHADERS = Path(__file__).resolve().parent.parent / "shaders"
+THREE_FILES = ("build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js")
+CONTENT_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
+                 ".css": "text/css; charset=utf-8", ".glsl": "text/plain; charset=utf-8",
+                 ".json": "application/json", ".bin": "application/octet-stream", ".png": "image/png"}
+
+
+def find_three() -> Path:
+    """node_modules/three: $PATCHLIGHT_NODE_MODULES, else the nearest node_modules above this
+    package or the working directory (the repository root after `npm ci`)."""
+    candidates = []
+    if os.environ.get("PATCHLIGHT_NODE_MODULES"):
+        candidates.append(Path(os.environ["PATCHLIGHT_NODE_MODULES"]))
+    for start in (Path(__file__).resolve(), Path.cwd().resolve()):
+        candidates += [parent / "node_modules" for parent in start.parents]
+    for modules in candidates:
+        if (modules / "three" / "build" / "three.module.js").is_file():
+            return (modules / "three").resolve()
+    raise PatchlightError("three.js not found: run `npm ci` in the patchlight repository "
+                          "(or set PATCHLIGHT_NODE_MODULES to a node_modules holding three)")
+
+
+def safe_file(root: Path, relative: str) -> Path | None:
+    """The regular file `relative` names inside `root`, or None when the name is unsafe
+    (empty, absolute, '..' or '.' segments, backslashes, NUL) or resolves outside root."""
+    if not relative or "\\" in relative or "\0" in relative or relative.startswith("/"):
+        return None
+    if any(part in ("", ".", "..") for part in relative.split("/")):
+        return None
+    root = root.resolve()
+    candidate = (root / relative).resolve()
+    if not candidate.is_relative_to(root) or not candidate.is_file():
+        return None
+    return candidate
+
+
+class ViewerServer:
+    """Serves one scene bundle. port 0 picks a free port; `url` is the page's address."""
+
+    def __init__(self, manifest: bytes, data: bytes, pictures: dict[str, Path], port: int = 0):
+        self.routes = {"/scene/manifest.json": manifest, "/scene/data.bin": data}
+        self.pictures = dict(pictures)
+        self.three = find_three()
+        handler = type("Handler", (_Handler,), {"viewer": self})
+        try:
+            self.httpd = ThreadingHTTPServer((HOST, port), handler)
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise PatchlightError(f"--port {port}: {HOST}:{port} is already in use") from None
+            raise PatchlightError(f"--port {port}: cannot listen on {HOST}:{port} ({exc.strerror})") from None
+        self.httpd.daemon_threads = True
+        self._thread: threading.Thread | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://{HOST}:{self.httpd.server_address[1]}/"
+
+    def resolve(self, path: str) -> tuple[bytes | Path | None, str]:
+        """(body or file, content type) for a request path, or (None, "") for 404."""
+        if path in ("/", "/index.html"):
+            return STATIC / "index.html", CONTENT_TYPES[".html"]
+        if path in self.routes:
+            return self.routes[path], CONTENT_TYPES[Path(path).suffix]
+        file = None
+        for prefix, root in (("/static/", STATIC), ("/shaders/", SHADERS), ("/three/", self.three)):
+            if path.startswith(prefix):
+                relative = unquote(path[len(prefix):], errors="strict")
+                if root is SHADERS and ("/" in relative or not relative.endswith(".glsl")):
+                    break
+                if root is self.three and relative not in THREE_FILES:
+                    break
+                file = safe_file(root, relative)
+                break
+        if path.startswith("/scene/files/"):
+            file = self.pictures.get(unquote(path[len("/scene/files/"):]))
+        if file is None:
+            return None, ""
+        return file, CONTENT_TYPES.get(file.suffix, "application/octet-stream")
+
+    def serve_forever(self) -> None:
+        self.httpd.serve_forever()
+
+    def start(self) -> "ViewerServer":
+        """Serve from a background thread (tests)."""
+        self._thread = threading.Thread(target=self.serve_forever, daemon=True)
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        if self._thread is not None:
+            self.httpd.shutdown()
+            self._thread.join()
+        self.httpd.server_close()
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class _Handler(BaseHTTPRequestHandler):
+    viewer: ViewerServer
+    server_version = "patchlight"
+
+    def do_GET(self):
+        self._respond(send_body=True)
+
+    def do_HEAD(self):
+        self._respond(send_body=False)
+
+    def _respond(self, send_body: bool) -> None:
+        try:
+            body, content_type = self.viewer.resolve(urlsplit(self.path).path)
+        except (UnicodeDecodeError, ValueError):
+            body, content_type = None, ""
+        if isinstance(body, Path):
+            body = body.read_bytes()
+        if body is None:
+            body, content_type = b"not found\n", "text/plain; charset=utf-8"
+            self.send_response(HTTPStatus.NOT_FOUND)
+        else:
+            self.send_response(HTTPStatus.OK)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("Cache-Control", "no-store")
+        self.end_headers()
+        if send_body:
+            self.wfile.write(body)
+
+    def log_message(self, format, *args):  # quiet: the terminal shows only the address
+        pass

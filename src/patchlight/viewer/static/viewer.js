@@ -1,0 +1,314 @@
+// The patchlight viewer: the scene bundle drawn with ShaderMaterials built from the GLSL
+// chunks, an orbit camera, and controls for the model, exposure, options and lights.
+// window.patchlight exposes the same renderer to tests (renderCase reads back the pixels).
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { constantTexture, loadBundle } from './bundle.js';
+import { ChunkLibrary } from './shaders.js';
+
+const KINDS = ['directional', 'point', 'spot'];        // light_common.glsl LIGHT_* ids
+const FALLOFFS = ['inverse-square', 'range'];          // FALLOFF_* ids
+const $ = (id) => document.getElementById(id);
+
+class Viewer {
+  async init(canvas) {
+    const chunks = new ChunkLibrary();
+    const [bundle, vertexShader, fragmentShader, models] = await Promise.all([
+      loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'), chunks.models()]);
+    this.bundle = bundle;
+    this.manifest = bundle.manifest;
+    this.models = models;
+    this.maxLights = this.manifest.max_lights;
+    const s = this.manifest.settings;
+    this.state = {
+      model: s.model, perVertex: s.per_vertex, normalMap: s.normal_map, lightmapSpecular: s.lightmap_specular,
+      exposure: s.exposure, reflectivity: s.reflectivity, overlay: '',
+      lights: this.manifest.lights.map((l) => ({ ...l })),
+    };
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(1);
+    this.renderer.setClearColor(0x000000, 0);
+    this.pictures = new Map();
+    this.uniforms = this.sharedUniforms();
+    this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
+    this.scene = new THREE.Scene();
+    this.scene.add(new THREE.Mesh(bundle.geometry(), this.materials));
+    const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
+    this.radius = Math.max(lo.distanceTo(hi) / 2, 1e-3);
+    this.camera = new THREE.PerspectiveCamera(45, 1, this.radius * 1e-3, this.radius * 100);
+    this.controls = new OrbitControls(this.camera, canvas);
+    const c = this.manifest.camera;
+    this.setCamera(c.eye, c.target, c.fov);
+    this.apply();
+    return this;
+  }
+
+  sharedUniforms() {
+    const n = this.maxLights;
+    const s = this.manifest.settings;
+    const vec3s = () => Array.from({ length: n }, () => new THREE.Vector3());
+    const lightmap = this.manifest.lightmap
+      ? this.bundle.texture(this.manifest.lightmap, THREE.ClampToEdgeWrapping) : constantTexture([0, 0, 0, 1]);
+    return {
+      light_count: { value: 0 },
+      light_kind: { value: new Array(n).fill(0) },
+      light_position: { value: vec3s() },
+      light_direction: { value: vec3s() },
+      light_intensity: { value: vec3s() },
+      light_range: { value: new Array(n).fill(0) },
+      light_falloff: { value: new Array(n).fill(0) },
+      light_cos_inner: { value: new Array(n).fill(1) },
+      light_cos_outer: { value: new Array(n).fill(0) },
+      ambient_color: { value: new THREE.Vector3(...s.ambient) },
+      sky_color: { value: new THREE.Vector3(...s.sky) },
+      ground_color: { value: new THREE.Vector3(...s.ground) },
+      env_map: { value: this.bundle.cube(this.manifest.env) },
+      lightmap: { value: lightmap },
+      exposure: { value: s.exposure },
+      overlay_map: { value: constantTexture([0, 0, 0, 1]) },
+    };
+  }
+
+  material(m, vertexShader, fragmentShader) {
+    const map = (name, fallback) => (name ? this.bundle.texture(name) : constantTexture(fallback));
+    const uniforms = {
+      ...this.uniforms,  // the same objects in every material: one update reaches all
+      base_color: { value: new THREE.Vector4(...m.base_color) },
+      color_map: { value: map(m.color_map, [1, 1, 1, 1]) },
+      emissive: { value: new THREE.Vector3(...m.emissive) },
+      emissive_map: { value: map(m.emissive_map, [1, 1, 1, 1]) },
+      normal_map: { value: map(m.normal_map, [0.5, 0.5, 1, 1]) },
+      shininess: { value: m.shininess },
+      reflectivity: { value: m.reflectivity },
+    };
+    const material = new THREE.ShaderMaterial({
+      vertexShader, fragmentShader, uniforms, side: m.double_sided ? THREE.DoubleSide : THREE.FrontSide,
+    });
+    material.userData.reflectivity = m.reflectivity;
+    return material;
+  }
+
+  // Push this.state into defines and uniforms.
+  apply() {
+    const st = this.state;
+    const model = this.models.indexOf(st.model);
+    if (model < 0) throw new Error(`unknown model ${st.model}`);
+    const defines = { MODEL: model };
+    if (st.perVertex) defines.PER_VERTEX = '';
+    if (st.normalMap && !st.perVertex) defines.NORMAL_MAP = '';
+    if (st.lightmapSpecular) defines.LIGHTMAP_SPECULAR = '';
+    if (st.overlay) defines.OVERLAY = '';
+    const key = JSON.stringify(defines);
+    for (const material of this.materials) {
+      if (material.userData.defines !== key) {
+        material.defines = defines;
+        material.userData.defines = key;
+        material.needsUpdate = true;
+      }
+      material.uniforms.reflectivity.value = st.reflectivity ?? material.userData.reflectivity;
+    }
+    const u = this.uniforms;
+    u.exposure.value = st.exposure;
+    u.overlay_map.value = st.overlay ? this.picture(st.overlay) : u.overlay_map.value;
+    const lights = st.lights.slice(0, this.maxLights);
+    u.light_count.value = lights.length;
+    lights.forEach((l, i) => {
+      u.light_kind.value[i] = KINDS.indexOf(l.kind);
+      u.light_position.value[i].set(...l.position);
+      u.light_direction.value[i].set(...l.direction);
+      u.light_intensity.value[i].set(...l.intensity);
+      u.light_range.value[i] = l.range;
+      u.light_falloff.value[i] = FALLOFFS.indexOf(l.falloff);
+      u.light_cos_inner.value[i] = l.cos_inner;
+      u.light_cos_outer.value[i] = l.cos_outer;
+    });
+  }
+
+  picture(name) {
+    if (!this.pictures.has(name)) {
+      const texture = new THREE.TextureLoader().load(`/scene/files/${encodeURIComponent(name)}`, () => this.draw());
+      texture.flipY = false;
+      texture.colorSpace = THREE.NoColorSpace;
+      texture.generateMipmaps = false;
+      texture.minFilter = THREE.LinearFilter;
+      texture.magFilter = THREE.NearestFilter;  // debug pictures: show their texels
+      this.pictures.set(name, texture);
+    }
+    return this.pictures.get(name);
+  }
+
+  setCamera(eye, target, fov) {
+    this.camera.fov = fov;
+    this.camera.position.set(...eye);
+    this.controls.target.set(...target);
+    this.camera.lookAt(this.controls.target);
+    this.camera.updateProjectionMatrix();
+  }
+
+  setSize(width, height) {
+    this.renderer.setSize(width, height, false);
+    this.camera.aspect = width / height;
+    this.camera.updateProjectionMatrix();
+  }
+
+  // Render one frame; returns its time in milliseconds (GPU work included: a 1-pixel read waits for it).
+  draw() {
+    const start = performance.now();
+    this.renderer.render(this.scene, this.camera);
+    const gl = this.renderer.getContext();
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    const ms = performance.now() - start;
+    this.onFrame?.(ms);
+    return ms;
+  }
+
+  // The canvas as RGBA bytes, row 0 at the top.
+  pixels() {
+    const gl = this.renderer.getContext();
+    const { width, height } = gl.canvas;
+    const raw = new Uint8Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, raw);
+    const rows = new Uint8Array(raw.length);
+    const stride = width * 4;
+    for (let y = 0; y < height; y++) rows.set(raw.subarray((height - 1 - y) * stride, (height - y) * stride), y * stride);
+    return rows;
+  }
+}
+
+// ------------------------------------------------------------------ page
+
+function linearToHex(rgb) {
+  const enc = (c) => (c <= 0.0031308 ? 12.92 * c : 1.055 * c ** (1 / 2.4) - 0.055);
+  return '#' + rgb.map((c) => Math.round(Math.min(1, Math.max(0, enc(c))) * 255).toString(16).padStart(2, '0')).join('');
+}
+
+function hexToLinear(hex) {
+  const dec = (c) => (c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4);
+  return [1, 3, 5].map((i) => dec(parseInt(hex.slice(i, i + 2), 16) / 255));
+}
+
+function bindControls(viewer, redraw) {
+  const st = viewer.state;
+  $('title').textContent = viewer.manifest.name;
+  for (const m of viewer.models) $('model').add(new Option(m, m));
+  $('model').value = st.model;
+  for (const p of viewer.manifest.pictures) $('surface').add(new Option(p, p));
+  $('surface-row').hidden = viewer.manifest.pictures.length === 0;
+  const notes = [];
+  if (!viewer.manifest.lightmap) notes.push('no lightmap: the lightmap model shows black (view a bake directory)');
+  if (viewer.manifest.lights_dropped) notes.push(`${viewer.manifest.lights_dropped} lights beyond ${viewer.maxLights} not shown`);
+  $('notes').textContent = notes.join('; ');
+  const exposureLabel = () => { $('exposure-value').value = st.exposure.toPrecision(3); };
+  $('exposure').value = Math.log10(st.exposure);
+  exposureLabel();
+  $('per-vertex').checked = st.perVertex;
+  $('normal-map').checked = st.normalMap;
+  $('lightmap-specular').checked = st.lightmapSpecular;
+  $('reflectivity-material').checked = st.reflectivity === null;
+  $('reflectivity').value = st.reflectivity ?? 0.5;
+
+  const change = (fn) => (event) => { fn(event); viewer.apply(); redraw(); };
+  $('model').onchange = change(() => { st.model = $('model').value; });
+  $('surface').onchange = change(() => { st.overlay = $('surface').value; });
+  $('exposure').oninput = change(() => { st.exposure = 10 ** Number($('exposure').value); exposureLabel(); });
+  $('per-vertex').onchange = change(() => {
+    st.perVertex = $('per-vertex').checked;
+    if (st.perVertex) { st.normalMap = false; $('normal-map').checked = false; }
+  });
+  $('normal-map').onchange = change(() => {
+    st.normalMap = $('normal-map').checked;
+    if (st.normalMap) { st.perVertex = false; $('per-vertex').checked = false; }
+  });
+  $('lightmap-specular').onchange = change(() => { st.lightmapSpecular = $('lightmap-specular').checked; });
+  const reflectivity = change(() => {
+    st.reflectivity = $('reflectivity-material').checked ? null : Number($('reflectivity').value);
+  });
+  $('reflectivity').oninput = reflectivity;
+  $('reflectivity-material').onchange = reflectivity;
+
+  $('light-panel').hidden = st.lights.length === 0;
+  st.lights.forEach((l, i) => $('light').add(new Option(`${i + 1}: ${l.kind}`, i)));
+  const current = () => st.lights[Number($('light').value)];
+  const showLight = () => {
+    const l = current();
+    if (!l) return;
+    const peak = Math.max(...l.intensity);
+    ['x', 'y', 'z'].forEach((axis, k) => {
+      $(`light-${axis}`).value = l.position[k];
+      $(`light-${axis}`).disabled = l.kind === 'directional';
+    });
+    $('light-color').value = linearToHex(l.intensity.map((c) => (peak > 0 ? c / peak : 1)));
+    $('light-intensity').value = peak;
+    $('light-range').value = l.range;
+    $('light-falloff').value = l.falloff;
+    $('light-range').disabled = $('light-falloff').disabled = l.kind === 'directional';
+  };
+  const editLight = change(() => {
+    const l = current();
+    l.position = ['x', 'y', 'z'].map((axis) => Number($(`light-${axis}`).value));
+    const colour = hexToLinear($('light-color').value);
+    l.intensity = colour.map((c) => c * Math.max(0, Number($('light-intensity').value)));
+    l.falloff = $('light-falloff').value;
+    l.range = Math.max(0, Number($('light-range').value));
+    if (l.falloff === 'range' && !(l.range > 0)) { l.range = viewer.radius; $('light-range').value = l.range; }
+  });
+  $('light').onchange = showLight;
+  for (const id of ['light-x', 'light-y', 'light-z', 'light-intensity', 'light-range']) $(id).oninput = editLight;
+  for (const id of ['light-color', 'light-falloff']) $(id).onchange = editLight;
+  showLight();
+}
+
+async function main() {
+  const canvas = $('view');
+  const viewer = await new Viewer().init(canvas);
+  const testing = new URLSearchParams(location.search).has('test');
+  let pending = false;
+  const redraw = () => {
+    if (pending || testing) return;
+    pending = true;
+    requestAnimationFrame(() => { pending = false; viewer.draw(); });
+  };
+  const triangles = viewer.manifest.arrays.indices.shape[0];
+  viewer.onFrame = (ms) => {
+    $('stats').textContent = `${viewer.state.model}  ${ms.toFixed(1)} ms/frame  ${triangles} triangles`;
+  };
+  bindControls(viewer, redraw);
+  const fit = () => { viewer.setSize(canvas.clientWidth, canvas.clientHeight); redraw(); };
+  if (!testing) {
+    window.addEventListener('resize', fit);
+    viewer.controls.addEventListener('change', redraw);
+    fit();
+  }
+  window.patchlight = {
+    viewer,
+    models: viewer.models,
+    // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
+    // reflectivity, overlay, camera {eye, target, fov}, width, height); RGBA bytes, base64.
+    renderCase(spec) {
+      const st = viewer.state;
+      st.model = spec.model;
+      st.perVertex = Boolean(spec.per_vertex);
+      st.normalMap = Boolean(spec.normal_map);
+      st.lightmapSpecular = Boolean(spec.lightmap_specular);
+      st.overlay = spec.overlay ?? '';
+      if (spec.exposure !== undefined) st.exposure = spec.exposure;
+      if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
+      st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
+      viewer.apply();
+      viewer.setSize(spec.width, spec.height);
+      viewer.setCamera(spec.camera.eye, spec.camera.target, spec.camera.fov);
+      viewer.draw();
+      const bytes = viewer.pixels();
+      let binary = '';
+      for (let i = 0; i < bytes.length; i += 0x8000) binary += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+      return btoa(binary);
+    },
+  };
+  document.body.dataset.ready = 'true';
+}
+
+main().catch((error) => {
+  console.error(error);
+  document.body.dataset.ready = 'error';
+  $('stats').textContent = `error: ${error.message}`;
+});

@@ -1,0 +1,142 @@
+"""The viewer's server: 127.0.0.1 only, its own files and the scene's, 404 for anything else."""
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from render_scenes import showcase_target
+
+from patchlight.errors import PatchlightError
+from patchlight.imaging.io import encode_png
+from patchlight.render import target_settings
+from patchlight.viewer.app import make_server
+from patchlight.viewer.server import ViewerServer, safe_file
+
+
+@pytest.fixture(scope="module")
+def bake_like(tmp_path_factory):
+    """A target with a bake directory holding pictures (and one file the viewer must not serve)."""
+    target = showcase_target(8, 16)
+    bake = tmp_path_factory.mktemp("bake")
+    picture = encode_png(np.full((4, 4, 3), 200, np.uint8))
+    for name in ("lightmap.png", "pass_01.png", "pass_02.png", "adaptive.png"):
+        (bake / name).write_bytes(picture)
+    (bake / "secret.txt").write_text("not for the browser")
+    target.bake_dir = bake
+    return target
+
+
+@pytest.fixture(scope="module")
+def server(bake_like):
+    with make_server(bake_like, target_settings(bake_like), exposure=1.0) as srv:
+        yield srv
+
+
+def get(server: ViewerServer, path: str, method: str = "GET") -> tuple[int, bytes]:
+    conn = http.client.HTTPConnection("127.0.0.1", server.httpd.server_address[1], timeout=10)
+    conn.putrequest(method, path, skip_accept_encoding=True)
+    conn.endheaders()
+    response = conn.getresponse()
+    body = response.read()
+    conn.close()
+    return response.status, body
+
+
+def test_listens_on_loopback_only(server):
+    assert server.httpd.server_address[0] == "127.0.0.1"
+    assert server.url.startswith("http://127.0.0.1:")
+
+
+@pytest.mark.parametrize("path", ["/", "/static/viewer.js", "/static/bundle.js", "/shaders/common.glsl",
+                                  "/shaders/surface_fragment.glsl", "/three/build/three.module.js",
+                                  "/three/build/three.core.js", "/three/examples/jsm/controls/OrbitControls.js",
+                                  "/scene/manifest.json", "/scene/data.bin", "/scene/files/pass_02.png",
+                                  "/scene/files/adaptive.png", "/static/viewer.js?v=1"])
+def test_serves_its_files(server, path):
+    status, body = get(server, path)
+    assert status == 200 and body
+
+
+def test_manifest_lists_the_bake_pictures_in_order(server):
+    manifest = json.loads(get(server, "/scene/manifest.json")[1])
+    assert manifest["pictures"] == ["lightmap.png", "pass_01.png", "pass_02.png", "adaptive.png"]
+    assert manifest["settings"]["exposure"] == 1.0 and len(manifest["lights"]) == 3
+
+
+@pytest.mark.parametrize("path", [
+    "/../../etc/passwd", "/static/../../errors.py", "/static/%2e%2e/%2e%2e/errors.py", "/static/%252e%252e/x",
+    "/static//etc/passwd", "/static/..%2f..%2ferrors.py", "/static/%2fetc%2fpasswd", "/static/..\\..\\errors.py",
+    "/shaders/../render/renderer.py", "/shaders/%2e%2e%2frender%2frenderer.py", "/shaders/__init__.py",
+    "/three/package.json", "/three/build/../../../etc/passwd", "/three/src/Three.js",
+    "/scene/files/secret.txt", "/scene/files/../secret.txt", "/scene/files/%2e%2e%2fsecret.txt",
+    "/static/", "/static/%00", "/static/%ff", "/etc/passwd", "//etc/passwd", "/node_modules/three/package.json",
+])
+def test_refuses_everything_else(server, path):
+    status, body = get(server, path)
+    assert status == 404, path
+    assert b"root:" not in body and b"not for the browser" not in body
+
+
+def test_head_works_and_other_methods_do_not(server):
+    assert get(server, "/scene/manifest.json", "HEAD") == (200, b"")
+    assert get(server, "/scene/manifest.json", "POST")[0] == 501
+
+
+def test_symlinks_leading_out_are_not_followed(tmp_path):
+    root = tmp_path / "root"
+    root.mkdir()
+    (root / "inside.txt").write_text("ok")
+    (tmp_path / "outside.txt").write_text("secret")
+    (root / "link.txt").symlink_to(tmp_path / "outside.txt")
+    (root / "dir").symlink_to(tmp_path)
+    assert safe_file(root, "inside.txt") == (root / "inside.txt").resolve()
+    assert safe_file(root, "link.txt") is None
+    assert safe_file(root, "dir/outside.txt") is None
+    assert safe_file(root, "../outside.txt") is None
+
+
+def test_a_port_in_use_is_a_one_line_error():
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(PatchlightError, match=f"{port}.*in use"):
+            ViewerServer(b"{}", b"", {}, port)
+
+
+def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):
+    proc = subprocess.Popen([sys.executable, "-m", "patchlight.cli.main", "view", "room", "--exposure", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert "http://127.0.0.1:" in line, proc.stderr.read() if proc.poll() is not None else line
+        port = int(line.split("http://127.0.0.1:")[1].split("/")[0])
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+        conn.request("GET", "/scene/manifest.json")
+        manifest = json.loads(conn.getresponse().read())
+        assert manifest["name"] == "room" and manifest["settings"]["model"] == "lambert"
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def test_view_command_bad_input_is_one_line(capsys):
+    from patchlight.cli.main import main
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        assert main(["view", "room", "--exposure", "1", "--port", str(busy.getsockname()[1])]) == 2
+    assert "in use" in capsys.readouterr().err
+    assert main(["view", "room", "--model", "lightmap"]) == 2
+    assert "lightmap" in capsys.readouterr().err

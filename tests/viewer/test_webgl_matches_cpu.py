@@ -1,0 +1,99 @@
+"""Every model and option, drawn by the viewer's GLSL in headless Chromium (SwiftShader
+WebGL2), equals the CPU renderer's picture of the same scene and camera: over the pixels
+both cover, mean |difference| < 1/255 and the 99th percentile < 4/255 (8-bit sRGB values
+of the same film exposure, which both apply in their display transform)."""
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+from conftest import node_env
+from render_scenes import SHOWCASE_CAMERA, showcase_target
+
+from patchlight.render import Camera, Renderer, target_settings
+from patchlight.render.output import display_pixels
+from patchlight.shading import LIT_MODELS, MODELS
+from patchlight.viewer.app import make_server
+
+SIZE = 128
+EXPOSURE = 1.0
+CAMERA = {"eye": list(SHOWCASE_CAMERA[0]), "target": list(SHOWCASE_CAMERA[1]), "fov": SHOWCASE_CAMERA[2]}
+
+
+def case_list() -> list[dict]:
+    cases = []
+    for model in MODELS:
+        variants = [{}]
+        if model in LIT_MODELS and model != "ambient":
+            variants += [{"per_vertex": True}, {"normal_map": True}, {"falloff": "range"}]
+        if model == "lightmap":
+            variants += [{"lightmap_specular": True}, {"lightmap_specular": True, "per_vertex": True}]
+        for options in variants:
+            name = "-".join([model, *(k if v is True else str(v) for k, v in options.items())])
+            cases.append({"name": name, "model": model, **options})
+    return cases
+
+
+CASES = case_list()
+
+
+@pytest.fixture(scope="module")
+def showcase():
+    target = showcase_target()
+    return target, Renderer(target)
+
+
+@pytest.fixture(scope="module")
+def webgl(browser, showcase, tmp_path_factory):
+    """{case name: (SIZE, SIZE, 4) uint8} from one Chromium run over every case."""
+    target, _ = showcase
+    out = tmp_path_factory.mktemp("webgl")
+    specs = [dict(c, camera=CAMERA, width=SIZE, height=SIZE, exposure=EXPOSURE) for c in CASES]
+    (out / "cases.json").write_text(json.dumps(specs))
+    with make_server(target, target_settings(target), exposure=EXPOSURE) as server:
+        run = subprocess.run([*browser, "cases", server.url, str(out / "cases.json"), str(out)],
+                             capture_output=True, text=True, timeout=600, env=node_env())
+    log = json.loads((out / "log.json").read_text())
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert log["ready"] == "true" and log["errors"] == []
+    return {c["name"]: np.fromfile(out / f"{c['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for c in CASES}
+
+
+def cpu_picture(showcase, case: dict) -> tuple[np.ndarray, np.ndarray]:
+    target, renderer = showcase
+    options = {k: v for k, v in case.items() if k not in ("name", "model")}
+    settings = target_settings(target, model=case["model"], **options)
+    env = renderer.environment(target_settings(target))
+    camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
+    result = renderer.render(settings, camera, SIZE, SIZE, env)
+    return display_pixels(result.radiance, EXPOSURE), result.covered
+
+
+def difference(gpu: np.ndarray, cpu: np.ndarray, cpu_covered: np.ndarray) -> tuple[float, float]:
+    """(mean, 99th percentile) of |gpu - cpu| in 1/255 units over the pixels both cover."""
+    gpu_covered = gpu[..., 3] > 0
+    both = gpu_covered & cpu_covered
+    assert both.sum() > 0.3 * SIZE * SIZE
+    assert np.count_nonzero(gpu_covered != cpu_covered) <= 0.002 * SIZE * SIZE
+    diff = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[both]
+    return float(diff.mean()), float(np.percentile(diff, 99))
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
+def test_webgl_equals_cpu(webgl, showcase, case):
+    mean, p99 = difference(webgl[case["name"]], *cpu_picture(showcase, case))
+    print(f"{case['name']}: mean {mean:.3f}/255, p99 {p99:.1f}/255")
+    assert mean < 1.0 and p99 < 4.0
+
+
+@pytest.mark.parametrize("gpu_case, cpu_case", [("phong", "blinn-phong"), ("lambert", "lambert-per_vertex"),
+                                                ("lambert", "lambert-normal_map"), ("lambert", "lambert-range"),
+                                                ("phong", "self-shadow"), ("lightmap", "lightmap-lightmap_specular"),
+                                                ("lambert", "envmap"), ("lambert", "hemisphere")])
+def test_the_comparison_tells_every_option_apart(webgl, showcase, gpu_case, cpu_case):
+    """The thresholds are tight enough to fail when the two sides shade differently."""
+    case = next(c for c in CASES if c["name"] == cpu_case)
+    mean, p99 = difference(webgl[gpu_case], *cpu_picture(showcase, case))
+    assert mean >= 1.0 or p99 >= 4.0
