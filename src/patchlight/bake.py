@@ -147,6 +147,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         rays_direct = tracer.rays_traced
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
         gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
+        if settings.ray is not None:
+            from .radiosity.cluster import RayCluster
+
+            gatherer.cluster = RayCluster(settings.ray)
         keep = estimate_matrix_bytes(len(patches), gatherer.rays_per_patch) <= settings.max_memory
         ff = FormFactors(gatherer, keep)
         gather_start = time.perf_counter()
@@ -175,10 +179,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "inside_geometry_patches": int(counts[adaptive.INSIDE]),
         "gather": settings.gather,
         "rays_per_patch": gatherer.rays_per_patch,
-        "rays_traced": tracer.rays_traced,
+        "rays_traced": rays_direct + ff.rays,
         "rays_direct": rays_direct,
-        "rays_gather": tracer.rays_traced - rays_direct,
-        "rays_per_second": (tracer.rays_traced - rays_direct) / max(gather_seconds, 1e-9),
+        "rays_gather": ff.rays,
+        "rays_per_second": ff.rays / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
         "form_factor_matrix": {"kept": keep, "nonzeros": ff.nnz, "bytes": ff.nbytes},
         "passes": len(solution.changes),
@@ -224,7 +228,7 @@ def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dic
     save_baked_glb(result.scene, out_dir / "scene.glb", buf.getvalue(), meta)
     files["scene.glb"] = out_dir / "scene.glb"
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
-               **result.stats, "files": sorted(files)}
+               **result.stats, "files": sorted([*files, "bake.json"])}
     from .imaging.io import atomic_path
 
     with atomic_path(out_dir / "bake.json") as tmp:

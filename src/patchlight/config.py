@@ -19,6 +19,7 @@
 | max_memory        | bytes         | 8 GiB          | above this the form-factor matrix is not kept: re-gather a pass |
 | seed              | int           | 1              | random rotation of the stratified pattern per patch             |
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
+| ray               | str           | None           | Ray cluster address for the gather ("local": start one here)    |
 """
 from __future__ import annotations
 
@@ -47,6 +48,7 @@ class BakeSettings:
     seed: int = 1
     denoise: bool = False
     save_passes: bool = False
+    ray: str | None = None
 
     def to_json(self) -> dict:
         return asdict(self)

@@ -57,6 +57,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
     p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
+    p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster (\"local\": start one here)")
     p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
     p.add_argument("--max-memory", type=float, default=DEFAULTS.max_memory / 2**30, metavar="GiB")
     p.add_argument("--seed", type=int, default=DEFAULTS.seed)
@@ -85,7 +86,7 @@ def settings_from_args(args) -> BakeSettings:
                         passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
                         accuracy=args.accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                         exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
-                        save_passes=args.save_passes, denoise=args.denoise)
+                        save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
 
 
 def load_lit_scene(args):

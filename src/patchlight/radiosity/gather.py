@@ -48,6 +48,10 @@ class Gatherer:
             self.dirs, self.weights = stratified_directions(size, np.random.default_rng(seed))
         else:
             raise ValueError(f"unknown gather method {method!r}")
+        self.cluster = None  # a cluster.RayCluster runs the chunks as Ray tasks; None: here
+
+    def __getstate__(self):
+        return dict(self.__dict__, cluster=None)
 
     @property
     def rays_per_patch(self) -> int:
@@ -64,7 +68,11 @@ class Gatherer:
     def gather(self, rows: np.ndarray, progress=None) -> GatherRows:
         """Trace and resolve the rays of patches `rows` (R,) into their F rows and sky term."""
         per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_patch)
-        parts = [self._gather_chunk(rows[s:s + per_chunk], progress) for s in range(0, len(rows), per_chunk)]
+        chunks = [rows[s:s + per_chunk] for s in range(0, len(rows), per_chunk)]
+        if self.cluster is not None:
+            parts = self.cluster.gather(self, chunks, progress)
+        else:
+            parts = [self.gather_chunk(chunk, progress) for chunk in chunks]
         if not parts:
             return GatherRows(sp.csr_matrix((0, len(self.patches)), dtype=np.float32),
                               np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
@@ -73,7 +81,8 @@ class Gatherer:
                           np.concatenate([p.back_fraction for p in parts]),
                           sum(p.lost for p in parts))
 
-    def _gather_chunk(self, rows: np.ndarray, progress) -> GatherRows:
+    def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
+        """One chunk's rows (the unit of work a Ray task runs)."""
         p, d = self.patches, self.rays_per_patch
         origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
                                            self.dirs, self._angles(rows))

@@ -27,10 +27,12 @@ class FormFactors:
     blocks: list = field(default_factory=list)
     back_fraction: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
     lost_rays: int = 0
+    rays: int = 0  # gather rays traced, here or on a cluster
 
     def add(self, rows: np.ndarray, progress=None) -> np.ndarray:
         """Gather patches `rows`; returns their share of rays that hit back faces."""
         g = self.gatherer.gather(rows, progress)
+        self.rays += len(rows) * self.gatherer.rays_per_patch
         self.ids = np.concatenate([self.ids, rows])
         self.S = np.concatenate([self.S, g.S])
         self.back_fraction = np.concatenate([self.back_fraction, g.back_fraction])
@@ -42,6 +44,8 @@ class FormFactors:
         """(C, 3) F @ B for the computed rows, in `ids` order."""
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
+        if not self.keep:
+            self.rays += len(self.ids) * self.gatherer.rays_per_patch
         matrices = self.blocks if self.keep else (self.gatherer.gather(rows).F for rows in self.blocks)
         B = np.ascontiguousarray(B, np.float32)
         return np.concatenate([_kernels.csr_times_rgb(F.indptr, F.indices, F.data, B) for F in matrices])

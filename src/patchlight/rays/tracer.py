@@ -41,20 +41,32 @@ class Tracer:
     """
 
     def __init__(self, positions: np.ndarray, indices: np.ndarray):
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-
         if len(indices) == 0:
             raise PatchlightError("cannot trace rays against a scene with no triangles")
-        self._scene = rtcore_scene.EmbreeScene()
-        self._mesh = TriangleMesh(self._scene, np.ascontiguousarray(positions, np.float32),
-                                  np.ascontiguousarray(indices, np.int32))
-        self._pool = ThreadPoolExecutor(_threads())
+        self.positions = np.ascontiguousarray(positions, np.float32)
+        self.indices = np.ascontiguousarray(indices, np.int32)
+        self._scene = None
+        self._pool = None
         self.rays_traced = 0
+
+    def __reduce__(self):
+        """Pickles as its triangles; the BVH is rebuilt where it is first used (a Ray worker)."""
+        return Tracer, (self.positions, self.indices)
+
+    def _ready(self):
+        if self._scene is None:
+            from embreex import rtcore_scene
+            from embreex.mesh_construction import TriangleMesh
+
+            self._scene = rtcore_scene.EmbreeScene()
+            self._mesh = TriangleMesh(self._scene, self.positions, self.indices)
+            self._pool = ThreadPoolExecutor(_threads())
+        return self._scene
 
     def _map(self, fn, n: int, *arrays):
         """Run fn over chunks of the row-aligned arrays; return the list of chunk results."""
         self.rays_traced += n
+        self._ready()
         starts = range(0, n, CHUNK)
         if n <= CHUNK or _threads() == 1:
             return [fn(*(a[s:s + CHUNK] for a in arrays)) for s in starts]

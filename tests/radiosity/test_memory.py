@@ -1,0 +1,18 @@
+"""When the form-factor matrix would not fit, passes re-gather its rows: slower, bounded
+memory, the same answer."""
+import numpy as np
+
+from patchlight.bake import bake
+from patchlight.config import BakeSettings
+from patchlight.scene import load_scene
+
+
+def test_regathering_gives_the_stored_matrix_answer():
+    scene = load_scene("cornell")
+    kept = bake(scene, BakeSettings(resolution=32))
+    bounded = bake(scene, BakeSettings(resolution=32, max_memory=0))
+    assert kept.stats["form_factor_matrix"]["kept"] and kept.stats["form_factor_matrix"]["bytes"] > 0
+    assert not bounded.stats["form_factor_matrix"]["kept"] and bounded.stats["form_factor_matrix"]["bytes"] == 0
+    assert bounded.stats["rays_gather"] > kept.stats["rays_gather"]
+    np.testing.assert_array_equal(bounded.status, kept.status)
+    np.testing.assert_allclose(bounded.lightmap, kept.lightmap, rtol=1e-5, atol=1e-7)
