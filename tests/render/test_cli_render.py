@@ -55,6 +55,15 @@ def test_lightmap_model_reads_a_bake_directory(bake_dir, tmp_path):
     assert image.shape == (32, 32, 3) and image.max() > 0
 
 
+def test_envmap_from_a_point_in_the_scene_differs_from_the_sky(scene_file, tmp_path):
+    sky, room = tmp_path / "sky.exr", tmp_path / "point.exr"
+    base = [str(scene_file), "--model", "envmap", "--camera", *CAMERA, "--size", "24x24"]
+    assert main(["render", *base, "-o", str(sky)]) == 0
+    assert main(["render", *base, "--envmap-from", "0,0.5,2.5", "-o", str(room)]) == 0
+    assert np.abs(read_exr(sky) - read_exr(room)).max() > 0.01
+    assert main(["render", *base, "--envmap-from", "0,0,0", "-o", str(room)]) == 2  # inside the sphere
+
+
 def test_lights_from_the_command_line_replace_the_scenes(scene_file, tmp_path):
     dark, lit = tmp_path / "dark.exr", tmp_path / "lit.exr"
     base = [str(scene_file), "--model", "lambert", "--camera", *CAMERA, "--size", "24x24", "--ambient", "0,0,0"]

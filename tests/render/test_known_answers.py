@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from render_scenes import _quad, scene_from_parts, sphere_target, uv_sphere
+from render_scenes import _box, _quad, scene_from_parts, sphere_target, uv_sphere
 
+from patchlight.errors import PatchlightError
 from patchlight.render import Camera, Renderer, Target, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.scene.model import Light, Material
@@ -176,3 +177,24 @@ def test_per_vertex_matches_per_pixel_on_a_fine_sphere_and_not_on_a_coarse_one()
         diffs[lat] = display_difference(pixel, vertex)
     assert diffs[96] < 0.5
     assert diffs[6] > 4.0
+
+
+def test_envmap_rendered_from_a_point_sees_the_lit_walls_and_the_suns_highlight():
+    """Inside a white box lit only by an ambient A, every wall shows radiance A (Lambert); the
+    cube map rendered from the centre holds A in every texel, and alpha the sun's highlight,
+    luminance(E / pi) in the sun's direction."""
+    walls = Material(name="walls", base_color=np.ones(4, np.float32))
+    scene = scene_from_parts(_box([-1, -1, -1], [1, 1, 1]), [walls], [0] * 6)
+    scene.indices = scene.indices[:, ::-1].copy()  # faces and normals towards the inside
+    scene.normals = -scene.normals
+    target = Target.from_scene(scene)
+    up = Light("directional", np.ones(3, np.float32), math.pi, direction=np.array([0, -1, 0], np.float32))
+    settings = target_settings(target, model="envmap", lights=[up], ambient=(0.3, 0.3, 0.3))
+    renderer = Renderer(target)
+    cube = renderer.environment(settings, from_point=(0.0, 0.0, 0.0), size=9)  # a texel centre on each axis
+    np.testing.assert_allclose(cube[0, ..., :3], 0.3, atol=1e-6)  # +X wall: ambient only
+    np.testing.assert_allclose(cube[3, ..., :3], 0.3 + 1.0, atol=1e-6)  # -Y face sees the floor: A + I N.L
+    assert cube[..., 3].max() == pytest.approx(1.0, abs=0.01)  # luminance of I = 1 at the sun
+    assert np.argmax(cube[..., 3].reshape(6, -1).max(axis=1)) == 2  # on the +Y face
+    with pytest.raises(PatchlightError, match="inside geometry"):
+        renderer.environment(settings, from_point=(5.0, 0.0, 0.0))  # outside: sees the box's backs

@@ -85,8 +85,9 @@ def test_default_camera_sees_an_object_from_outside_and_a_room_from_inside():
     assert 0.1 < covered.mean() < 0.95
     walls = Material(name="walls", base_color=np.ones(4, np.float32))
     room = Target.from_scene(scene_from_parts(_box([0, 0, 0], [6, 3, 4]), [walls], [0] * 6))
-    # turn the box inside out: faces towards the interior
+    # turn the box inside out: faces and normals towards the interior
     room.scene.indices = room.scene.indices[:, ::-1].copy()
+    room.scene.normals = -room.scene.normals
     room = Target.from_scene(room.scene)
     camera = Renderer(room).default_camera()
     assert np.all(camera.eye > 0) and np.all(camera.eye < [6, 3, 4])

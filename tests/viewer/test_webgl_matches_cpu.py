@@ -29,7 +29,8 @@ def case_list() -> list[dict]:
         if model in LIT_MODELS and model != "ambient":
             variants += [{"per_vertex": True}, {"normal_map": True}, {"falloff": "range"}]
         if model == "lightmap":
-            variants += [{"lightmap_specular": True}, {"lightmap_specular": True, "per_vertex": True}]
+            variants += [{"lightmap_specular": True}, {"lightmap_specular": True, "per_vertex": True},
+                         {"lightmap_specular": True, "normal_map": True}]
         for options in variants:
             name = "-".join([model, *(k if v is True else str(v) for k, v in options.items())])
             cases.append({"name": name, "model": model, **options})
