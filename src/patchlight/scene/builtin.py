@@ -14,7 +14,7 @@ import numpy as np
 from .model import Light, Material, Scene, face_normals
 from .sky import Sky
 
-BUILTIN_SCENES = ("room", "cornell")
+BUILTIN_SCENES = ("room", "cornell", "track")
 
 
 class SceneBuilder:
@@ -157,4 +157,6 @@ def cornell() -> Scene:
 
 
 def builtin_scene(name: str) -> Scene:
-    return {"room": room, "cornell": cornell}[name]()
+    from ..ground.track import track  # the outdoor ground-map demo (issue 5)
+
+    return {"room": room, "cornell": cornell, "track": track}[name]()

@@ -1,0 +1,120 @@
+"""`patchlight groundmap SCENE_OR_BAKE_DIR -o DIR`: a top-down radiosity ground map with static
+sun shadows, for hemisphere lighting of moving objects (runtime model hemisphere-radiosity).
+
+Given a scene (file or built-in name) rather than a bake directory, the scene is baked first
+and the bake is written into DIR too, so DIR is also a bake directory that `patchlight view`
+shows, with the ground map lighting cars that drive through it.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+from ..errors import PatchlightError
+from .bake import add_scene_options
+
+DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
+LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this many texels
+
+
+def register(sub) -> None:
+    from ..ground.encode import ENCODINGS
+    from ..ground.groundmap import GroundMapSettings
+
+    d = GroundMapSettings()
+    p = sub.add_parser("groundmap", help="bake a top-down radiosity ground map", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", metavar="SCENE_OR_BAKE_DIR", help="a bake directory, a .glb/.gltf file or a built-in scene")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
+    p.add_argument("--area", metavar="X0,Z0,X1,Z1", help="metres covered by the map (default: the level, squared)")
+    p.add_argument("--size", type=int, default=d.size, metavar="N", help="map width = height (default %(default)s)")
+    p.add_argument("--max-height", type=float, default=d.max_height, metavar="H",
+                   help="leave out polygons more than H metres above the ground (default %(default)s)")
+    p.add_argument("--noise", type=float, default=d.noise, metavar="A", help="random noise (default %(default)s)")
+    p.add_argument("--shadows", choices=ENCODINGS, default=d.shadows,
+                   help="separate maps, shadow in alpha, or folded into one RGB map (default %(default)s)")
+    p.add_argument("--seed", type=int, default=d.seed, help="noise seed (default %(default)s)")
+    p.add_argument("--offset", type=float, default=d.offset, metavar="M",
+                   help="runtime sample offset along the normal, metres, recorded in the json (default %(default)s)")
+    p.add_argument("--texels-per-unit", type=float, metavar="T",
+                   help=f"lightmap density when baking a scene here (default {DENSE_TEXELS_PER_UNIT:g}, "
+                        f"or less so the level spans {LEVEL_TEXELS} texels)")
+    add_scene_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress or summary")
+    p.add_argument("--json", action="store_true", help="print groundmap.json on stdout")
+    p.set_defaults(func=run)
+
+
+def settings_from_args(args):
+    from ..ground.groundmap import GroundMapSettings
+    from ..ground.mapping import parse_area
+
+    settings = GroundMapSettings(size=args.size, area=parse_area(args.area) if args.area else None,
+                                 max_height=args.max_height, noise=args.noise, shadows=args.shadows,
+                                 seed=args.seed, offset=args.offset)
+    settings.validate()
+    return settings
+
+
+def _sky_override(args):
+    from ..scene import Sky
+
+    if args.sky is not None:
+        return Sky.uniform(args.sky)
+    if args.sky_gradient is not None:
+        return Sky.gradient(*args.sky_gradient)
+    if args.sky_image is not None:
+        from ..imaging.io import read_environment
+
+        return Sky.from_image(read_environment(args.sky_image))
+    return None
+
+
+def solve_here(args):
+    """(SolvedScene, bake directory relative to the output): the bake directory as given, or
+    the scene baked now and written into the output directory."""
+    from ..bake import bake, write_bake
+    from ..config import BakeSettings
+    from ..solved import SolvedScene, is_bake_dir, load_solved
+    from .bake import load_lit_scene
+
+    if is_bake_dir(args.scene):
+        solved = load_solved(args.scene, sky=_sky_override(args))
+        return solved, os.path.relpath(Path(args.scene).resolve(), args.output.resolve())
+    if Path(args.scene).is_dir():
+        raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
+    scene = load_lit_scene(args)
+    density = args.texels_per_unit
+    if density is None:
+        lo, hi = scene.bounds()
+        density = min(DENSE_TEXELS_PER_UNIT, LEVEL_TEXELS / max(float(hi[0] - lo[0]), float(hi[2] - lo[2]), 1e-3))
+    if not density > 0:
+        raise PatchlightError("--texels-per-unit must be positive")
+    settings = BakeSettings(texels_per_unit=density, sun_angle=args.sun_angle, falloff=args.falloff)
+    result = bake(scene, settings, quiet=args.quiet or args.json)
+    write_bake(result, args.output, settings)
+    return SolvedScene(result.scene, result.lightmap, str(args.scene)), "."
+
+
+def run(args) -> int:
+    from ..ground.groundmap import make_groundmap, write_groundmap
+
+    settings = settings_from_args(args)
+    solved, bake_dir = solve_here(args)
+    ground_map = make_groundmap(solved, settings)
+    manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir)
+    if args.json:
+        json.dump(json.loads((args.output / "groundmap.json").read_text()), sys.stdout, indent=2)
+        print()
+    elif not args.quiet:
+        e = ground_map.encoded
+        files = " ".join(v for f in manifest["files"].values() for k, v in f.items() if k in ("png", "dds"))
+        print(f"ground map {settings.size} x {settings.size} ({e.encoding}) in "
+              f"{sum(ground_map.seconds.values()):.2f} s, {100 * ground_map.shadowed:.0f}% in shadow")
+        print(f"results in {args.output}/: {files} groundmap.json")
+    for warning in ground_map.warnings:
+        print(f"patchlight: warning: {warning}", file=sys.stderr)
+    return 0

@@ -1,0 +1,197 @@
+"""Radiosity ground maps for hemisphere lighting (hemisphere-lighting-with-radiosity-maps.txt):
+a top-down picture of the lit level that moving objects look up as their ground colour,
+with static sun shadows folded in.
+
+Stages (each timed): prepare (leave out high polygons, turn vertical ones up), look down
+(one ray per texel, the bake's light at the hit), shadows (a ray to the sun per texel),
+encode (noise, shadow amount, one of three encodings), then `write_groundmap` writes the
+files (files.py).
+
+| setting    | unit / type | default | meaning (range; typical)                                      |
+|------------|-------------|---------|---------------------------------------------------------------|
+| size       | texels      | 1024    | map width = height (1..16384; 512-2048)                       |
+| area       | GroundArea  | None    | x0, z0, x1, z1 metres; None: a square over the level          |
+| max_height | metres      | 3.0     | leave out polygons higher above the ground (> 0; 2-5)         |
+| noise      | ratio       | 0.1     | random texel noise, per channel (0..1; the article's 10 %)    |
+| shadows    | str         | "hsv"   | "separate", "alpha" or "hsv" (encode.py)                      |
+| seed       | int         | 1       | noise seed                                                    |
+| offset     | metres      | 1.0     | runtime sample offset along the normal, recorded in the json  |
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PatchlightError
+from ..rays.tracer import Tracer
+from ..solved import SolvedScene
+from . import encode as enc
+from .files import FORMAT, VERSION, to_bytes, write_manifest, write_map_files
+from .mapping import GroundArea, check_size, square_area
+from .picture import look_down, sun_on_ground, sun_visibility, the_sun
+from .prepare import prepare_map_geometry
+
+SIDE_VECTOR = ("the moving object's local +X axis (glTF: +Y up, the front faces +Z) in world space, unit "
+               "length; mode side moves the sample point by offset x (N . side) side, mode normal by "
+               "offset x N (Listing 1 keeps the offset in the vector's length: VS_RADIOSITY_SIDE = "
+               "sqrt(offset) x side)")
+MAPPING_NOTE = ("u = U . (x, y, z, 1), v = V . (x, y, z, 1); +X to the right, +Z down the picture, "
+                "v = 0 is the image's top row (glTF's UV convention); texels are linear, value 1 = map_scale")
+
+
+@dataclass
+class GroundMapSettings:
+    """The table in the module docstring."""
+
+    size: int = 1024
+    area: GroundArea | None = None
+    max_height: float = 3.0
+    noise: float = 0.1
+    shadows: str = "hsv"
+    seed: int = 1
+    offset: float = 1.0
+
+    def validate(self) -> None:
+        check_size(self.size)
+        if self.shadows not in enc.ENCODINGS:
+            raise PatchlightError(f"--shadows {self.shadows}: choose from {', '.join(enc.ENCODINGS)}")
+        if not (np.isfinite(self.max_height) and self.max_height > 0):
+            raise PatchlightError(f"--max-height {self.max_height}: must be a positive number of metres")
+        if not 0 <= self.noise <= 1:
+            raise PatchlightError(f"--noise {self.noise}: must lie between 0 and 1")
+        if not (np.isfinite(self.offset) and self.offset >= 0):
+            raise PatchlightError(f"--offset {self.offset}: must be a non-negative number of metres")
+
+
+@dataclass
+class GroundMap:
+    """A baked ground map. encoded: the texels (encode.EncodedMap); area; sky_light (3,)
+    the sky's incident light on an up-facing patch (radiance); sun: (direction (3,),
+    I_sun on the ground (3,)) or None; shadowed: share of covered texels in shadow;
+    coverage: share of texels with a surface under them; seconds per stage; warnings."""
+
+    encoded: enc.EncodedMap
+    area: GroundArea
+    settings: GroundMapSettings
+    sky_light: np.ndarray
+    sun: tuple | None
+    shadowed: float
+    coverage: float
+    seconds: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+
+
+def _sky_light(solved: SolvedScene, excident: np.ndarray, covered: np.ndarray, warnings: list) -> np.ndarray:
+    """(3,) incident light from the sky on an unoccluded up-facing patch; without a sky the
+    map's mean radiance (so the sky term is neutral), with a warning."""
+    from ..shading.environment import sky_incident
+
+    sky = solved.scene.sky
+    if sky is not None and not sky.is_black():
+        return sky_incident(sky)[0]
+    warnings.append(f"{solved.source}: no sky; the sky colour is taken as the map's mean radiance")
+    return excident[covered].mean(axis=0).astype(np.float32)
+
+
+def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = None) -> GroundMap:
+    """Bake the ground map of a solved scene (module docstring). Nothing is written."""
+    settings = settings or GroundMapSettings()
+    settings.validate()
+    scene = solved.scene
+    seconds: dict[str, float] = {}
+    warnings: list[str] = []
+    lo, hi = scene.bounds()
+    area = settings.area or square_area(lo, hi)
+    where = f"--area {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.source or scene.name
+
+    clock = time.perf_counter()
+    geometry = prepare_map_geometry(scene, settings.max_height)
+    seconds["prepare"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    picture = look_down(solved, geometry, area, settings.size)
+    seconds["look down"] = time.perf_counter() - clock
+    covered = picture.covered
+    if not covered.any():
+        raise PatchlightError(f"{where}: no ground under the area (no upward-facing surface within "
+                              f"{settings.max_height:g} m of the ground lies in x {area.x0:g}..{area.x1:g}, "
+                              f"z {area.z0:g}..{area.z1:g})")
+    coverage = float(covered.mean())
+    if coverage < 1.0:
+        warnings.append(f"{where}: {100 * (1 - coverage):.1f}% of the map has no surface under it (black texels)")
+
+    clock = time.perf_counter()
+    sun = the_sun(scene.lights)
+    excident = picture.excident
+    if sun is None:
+        warnings.append(f"{scene.source or scene.name}: no sun (directional light), so no static shadows")
+        unshadowed = excident
+        sun_info = None
+    else:
+        lift = max(1e-4 * float(np.max(hi - lo)), 1e-3)
+        visible = sun_visibility(Tracer(scene.positions, scene.indices), picture.ground, sun, lift)
+        sun_ground = sun_on_ground(sun)
+        unshadowed = excident + picture.reflectance * (1.0 - visible)[..., None] * sun_ground
+        sun_info = (np.asarray(sun.direction, np.float32), sun_ground)
+    shadow = np.where(covered, enc.shadow_amount(excident, unshadowed), 1.0).astype(np.float32)
+    seconds["shadows"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    noise_seed = settings.seed
+    excident = enc.add_noise(excident, settings.noise, noise_seed)
+    unshadowed = enc.add_noise(unshadowed, settings.noise, noise_seed)
+    sky_light = _sky_light(solved, excident, covered, warnings)
+    encoded = enc.encode(settings.shadows, excident, unshadowed, shadow, covered, sky_light)
+    seconds["encode"] = time.perf_counter() - clock
+    shadowed = float(np.mean(shadow[covered] < enc.UNSHADOWED))
+    return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, coverage,
+                     seconds, warnings)
+
+
+def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str | None) -> dict:
+    """Write the map files and groundmap.json into out_dir (created if needed); every file
+    goes to a temporary name first. bake_dir: the bake it came from, relative to out_dir.
+    Returns the manifest."""
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PatchlightError(f"-o {out_dir}: cannot create the directory ({exc.strerror or exc})") from exc
+    clock = time.perf_counter()
+    e = ground_map.encoded
+    files = {"color": write_map_files(out_dir, "groundmap", to_bytes(e.color))}
+    if e.shadow is not None:
+        grey = to_bytes(np.repeat(e.shadow[..., None], 3, axis=-1))
+        files["shadow"] = write_map_files(out_dir, "shadow", grey)
+    ground_map.seconds["write"] = time.perf_counter() - clock
+    s = ground_map.settings
+    manifest = {
+        "format": FORMAT,
+        "version": VERSION,
+        "source": source,
+        "bake": bake_dir,
+        "size": s.size,
+        "area": ground_map.area.to_json(),
+        "mapping": {"U": ground_map.area.U, "V": ground_map.area.V, "note": MAPPING_NOTE},
+        "encoding": e.encoding,
+        "files": files,
+        "color_space": "linear",
+        "map_scale": e.map_scale,
+        "sky_scale": e.sky_scale,
+        "sky_light": ground_map.sky_light,
+        "offset": s.offset,
+        "side_vector": SIDE_VECTOR,
+        "max_height": s.max_height,
+        "noise": s.noise,
+        "seed": s.seed,
+        "sun": None if ground_map.sun is None else {"direction": ground_map.sun[0], "on_ground": ground_map.sun[1]},
+        "shadowed_fraction": ground_map.shadowed,
+        "coverage": ground_map.coverage,
+        "seconds_per_stage": ground_map.seconds,
+        "warnings": ground_map.warnings,
+    }
+    write_manifest(out_dir, manifest)
+    return manifest

@@ -1,0 +1,110 @@
+"""The top-down picture of the lit level and its static sun shadows.
+
+One ray per texel centre looks straight down (-Y) at the map geometry (prepare.py): the
+turned-up vertical layer first, then the flat layer. A hit shows the light leaving the
+original surface there, B = rho I + E (DESIGN.md units: radiance), read from the bake.
+
+Shadows: a shadow ray from the flat layer's hit towards the sun, against the whole level
+(tree canopies and poles left out of the picture still cast shadows), says whether the sun
+reaches that spot of ground. The real sun's 0.53 degree disc gives penumbrae of a few
+centimetres at tree height, less than a texel of a typical map, so one ray to the sun's
+centre is enough.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..rays.tracer import Hits, Tracer
+from ..scene.model import Light
+from ..solved import SolvedScene
+from .mapping import GroundArea
+from .prepare import MapGeometry
+
+_DOWN = np.array([0.0, -1.0, 0.0], np.float32)
+
+
+@dataclass
+class TopDown:
+    """Per texel of a size x size map, rows along z, columns along x (mapping.py).
+
+    excident (H, W, 3) radiance B seen from above; reflectance (H, W, 3) rho there;
+    covered (H, W) bool, False where no surface lies under the texel;
+    ground (H, W, 3) world point of the flat layer's hit (NaN where none), where shadows
+    are tested."""
+
+    excident: np.ndarray
+    reflectance: np.ndarray
+    covered: np.ndarray
+    ground: np.ndarray
+
+
+def _look_down(tracer: Tracer | None, xz: np.ndarray, top_y: float) -> Hits | None:
+    if tracer is None:
+        return None
+    origins = np.stack([xz[:, 0], np.full(len(xz), top_y), xz[:, 1]], axis=1).astype(np.float32)
+    return tracer.intersect(origins, np.broadcast_to(_DOWN, origins.shape))
+
+
+def look_down(solved: SolvedScene, geometry: MapGeometry, area: GroundArea, size: int) -> TopDown:
+    """The top-down picture of `solved` through `geometry` over `area` at size x size."""
+    xz = area.texel_centres(size).reshape(-1, 2)
+    n = len(xz)
+    layers = [(geometry.fallen_positions, geometry.fallen_source), (geometry.flat_positions, geometry.flat_source)]
+    top_y = max([float(p[:, 1].max()) for p, _ in layers if len(p)], default=0.0) + 1.0
+    tri = np.full(n, -1, np.int64)
+    u = np.zeros(n, np.float32)
+    v = np.zeros(n, np.float32)
+    ground = np.full((n, 3), np.nan)
+    for positions, source in layers:
+        hits = _look_down(MapGeometry.tracer(positions), xz, top_y)
+        if hits is None:
+            continue
+        hit = hits.tri >= 0
+        if source is geometry.flat_source:
+            ground[hit] = np.stack([xz[hit, 0], top_y - hits.t[hit], xz[hit, 1]], axis=1)
+        take = hit & (tri < 0)
+        tri[take] = source[hits.tri[take]]
+        u[take], v[take] = hits.u[take], hits.v[take]
+    covered = tri >= 0
+    excident = np.zeros((n, 3), np.float32)
+    reflectance = np.zeros((n, 3), np.float32)
+    if covered.any():
+        t, uu, vv = tri[covered], u[covered], v[covered]
+        reflectance[covered] = solved.reflectance(t, uu, vv)
+        excident[covered] = reflectance[covered] * solved.incident(t, uu, vv) + solved.emission(t, uu, vv)
+    shape = (size, size)
+    return TopDown(excident.reshape(*shape, 3), reflectance.reshape(*shape, 3), covered.reshape(shape),
+                   ground.reshape(*shape, 3))
+
+
+def the_sun(lights: list[Light]) -> Light | None:
+    """The scene's brightest directional light, or None."""
+    suns = [light for light in lights if light.kind == "directional"]
+    return max(suns, key=lambda s: float(np.sum(s.radiometric)), default=None)
+
+
+def sun_visibility(tracer: Tracer, ground: np.ndarray, sun: Light, lift: float) -> np.ndarray:
+    """(H, W) float32: 1 where the sun's centre is visible from the ground points (H, W, 3),
+    lifted by `lift` metres; 0 where the level blocks it; 1 where there is no point (NaN)."""
+    points = ground.reshape(-1, 3)
+    known = np.flatnonzero(~np.isnan(points[:, 0]))
+    to_sun = -np.asarray(sun.direction, np.float64)
+    to_sun /= np.linalg.norm(to_sun)
+    visible = np.ones(len(points), np.float32)
+    if to_sun[1] <= 0:  # the sun is at or below the horizon: the ground is in shade everywhere
+        visible[known] = 0.0
+        return visible.reshape(ground.shape[:2])
+    origins = points[known] + np.array([0.0, lift, 0.0])
+    blocked = tracer.occluded(origins.astype(np.float32), np.broadcast_to(to_sun.astype(np.float32), origins.shape),
+                              np.float32(1e30))
+    visible[known] = np.where(blocked, 0.0, 1.0)
+    return visible.reshape(ground.shape[:2])
+
+
+def sun_on_ground(sun: Light) -> np.ndarray:
+    """(3,) incident light I the sun gives an unshadowed horizontal patch: Es max(0, -d.y) / pi."""
+    d = np.asarray(sun.direction, np.float64)
+    cos = max(0.0, -d[1] / np.linalg.norm(d))
+    return (sun.radiometric * cos / np.pi).astype(np.float32)
