@@ -51,6 +51,14 @@ def _check_scene(scene: Scene) -> None:
                               "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
 
 
+def _input_warnings(scene: Scene) -> list[str]:
+    """One line per thing the importer left out or ignored."""
+    where = scene.source or scene.name
+    counted = [(scene.extras.get("skipped_primitives", 0), "point/line primitives skipped"),
+               (scene.extras.get("degenerate_triangles", 0), "degenerate triangles skipped")]
+    return [f"{where}: {n} {what}" for n, what in counted if n] + list(scene.extras.get("warnings", []))
+
+
 def _tri_uv1(scene: Scene) -> np.ndarray:
     return np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
 
@@ -191,7 +199,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "seconds_per_stage": dict(progress.seconds),
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,
-        "warnings": list(scene.extras.get("warnings", [])) + list(uv_info.get("warnings", [])),
+        "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
     return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)
 

@@ -162,3 +162,32 @@ def test_ctrl_c_leaves_no_partial_output(tmp_path, capsys, monkeypatch):
     status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "32", "--quiet")
     assert status == 130 and "interrupted" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_points_beside_triangles_are_skipped_with_a_warning(tmp_path, capsys):
+    save_baked_glb(lit_quad(), tmp_path / "good.glb")
+    good = (tmp_path / "good.glb").read_bytes()
+    json_len = struct.unpack_from("<I", good, 12)[0]
+    doc = json.loads(good[20:20 + json_len])
+    mesh = doc["meshes"][0]
+    mesh["primitives"].append(dict(mesh["primitives"][0], mode=0))
+    (tmp_path / "mixed.gltf").write_bytes(_embed(doc, good, json_len))
+    status, _, err = run(capsys, "bake", str(tmp_path / "mixed.gltf"), "-o", str(tmp_path / "out"),
+                         "--resolution", "16", "--quiet")
+    assert status == 0
+    assert "1 point/line primitives skipped" in err
+
+
+def test_sky_image_lights_an_open_plane_with_its_radiance(tmp_path, capsys):
+    from patchlight.imaging.io import write_exr
+
+    write_exr(tmp_path / "sky.exr", np.full((16, 32, 3), [0.5, 1.0, 2.0], np.float32))
+    dark = lit_quad()
+    dark.lights = []
+    save_baked_glb(dark, tmp_path / "in.glb")
+    status, _, _ = run(capsys, "bake", str(tmp_path / "in.glb"), "-o", str(tmp_path / "out"),
+                       "--resolution", "16", "--sky-image", str(tmp_path / "sky.exr"), "--quiet")
+    assert status == 0
+    lightmap = read_exr(tmp_path / "out" / "lightmap.exr")
+    lit = lightmap[lightmap.sum(axis=2) > 0]
+    np.testing.assert_allclose(lit, np.broadcast_to([0.5, 1.0, 2.0], lit.shape), rtol=1e-5)
