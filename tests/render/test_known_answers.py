@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from render_scenes import _box, _quad, scene_from_parts, sphere_target, uv_sphere
+from render_scenes import _box, _quad, scene_from_parts, sphere_target
 
 from patchlight.errors import PatchlightError
 from patchlight.render import Camera, Renderer, Target, target_settings

@@ -6,7 +6,7 @@ viewer culls the back faces of single-sided materials, rays pass through them he
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -186,8 +186,8 @@ class Renderer:
         if from_point is None and scene.sky is not None:
             return environment_from_sky(scene.sky, settings.lights, size)
         dirs = cube_directions(size).reshape(-1, 3)
-        inner = ShadingSettings(**{**settings.__dict__, "per_vertex": False, "normal_map": False,
-                                   "model": "lightmap" if self.target.lightmap is not None else "lambert"})
+        inner = replace(settings, per_vertex=False, normal_map=False,
+                        model="lightmap" if self.target.lightmap is not None else "lambert")
         where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
         radiance, covered = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
         if scene.sky is not None:

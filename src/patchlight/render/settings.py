@@ -11,10 +11,8 @@ import numpy as np
 
 from ..shading.environment import sky_incident
 from ..shading.lights import from_scene_light
-from ..shading.models import ShadingSettings
+from ..shading.models import DEFAULT_AMBIENT, ShadingSettings
 from .target import Target
-
-DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim, so unlit sides stay visible
 
 
 def target_settings(target: Target, model: str = "lambert", lights=None, falloff: str = "inverse-square",

@@ -17,6 +17,8 @@ from .terms import (blinn_phong_specular, decode_normal, envmap_color, fresnel_t
                     lambert_diffuse, normalize, perturb_normal, phong_specular, reflect_view, self_shadow)
 from .textures import sample_bilinear, sample_cube
 
+DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim, so unlit sides stay visible
+
 # Index = the GLSL MODEL_* number (common.glsl).
 MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap")
 LIT_MODELS = MODELS[1:]
@@ -30,15 +32,15 @@ class ShadingSettings:
     (DESIGN.md units) of the ambient term and of the hemisphere's up and down poles.
     per_vertex: evaluate the light sum at vertices and interpolate. normal_map: perturb normals
     by the materials' normal maps, with the colour alpha as gloss. lightmap_specular: add the
-    lights' Blinn-Phong highlight to the lightmap model. exposure: display scale for PNGs and
-    the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
+    lights' Blinn-Phong highlight to the lightmap model. exposure: k of the display curve
+    1 - exp(-k x) for PNGs and the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
     material's, or None to keep theirs."""
 
     model: str = "lambert"
     lights: list[PunctualLight] = field(default_factory=list)
-    ambient: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
-    sky: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
-    ground: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
+    ambient: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
+    sky: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
+    ground: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
     per_vertex: bool = False
     normal_map: bool = False
     lightmap_specular: bool = False

@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..imaging.color import linear_to_srgb
+from ..imaging.exposure import expose
+
 
 def saturate(x):
     """common.glsl: clamp to [0, 1]."""
@@ -94,7 +97,4 @@ def perturb_normal(N: np.ndarray, tangent: np.ndarray, n: np.ndarray) -> np.ndar
 
 def display_encode(radiance: np.ndarray, exposure: float) -> np.ndarray:
     """display.glsl: sRGB encoding of the film exposure 1 - exp(-k x); values in [0, 1]."""
-    from ..imaging.color import linear_to_srgb
-    from ..imaging.exposure import expose
-
     return linear_to_srgb(expose(radiance, exposure))

@@ -83,21 +83,24 @@ class ViewerServer:
             return STATIC / "index.html", CONTENT_TYPES[".html"]
         if path in self.routes:
             return self.routes[path], CONTENT_TYPES[Path(path).suffix]
-        file = None
-        for prefix, root in (("/static/", STATIC), ("/shaders/", SHADERS), ("/three/", self.three)):
-            if path.startswith(prefix):
-                relative = unquote(path[len(prefix):], errors="strict")
-                if root is SHADERS and ("/" in relative or not relative.endswith(".glsl")):
-                    break
-                if root is self.three and relative not in THREE_FILES:
-                    break
-                file = safe_file(root, relative)
-                break
-        if path.startswith("/scene/files/"):
-            file = self.pictures.get(unquote(path[len("/scene/files/"):]))
+        file = self._file(path)
         if file is None:
             return None, ""
         return file, CONTENT_TYPES.get(file.suffix, "application/octet-stream")
+
+    def _file(self, path: str) -> Path | None:
+        """The file a /static/, /shaders/, /three/ or /scene/files/ path names, if it may be served."""
+        prefix, _, rest = path[1:].partition("/")
+        name = unquote(rest, errors="strict")
+        if prefix == "static":
+            return safe_file(STATIC, name)
+        if prefix == "shaders" and "/" not in name and name.endswith(".glsl"):
+            return safe_file(SHADERS, name)
+        if prefix == "three" and name in THREE_FILES:
+            return safe_file(self.three, name)
+        if prefix == "scene" and name.startswith("files/"):
+            return self.pictures.get(name[len("files/"):])
+        return None
 
     def serve_forever(self) -> None:
         self.httpd.serve_forever()
