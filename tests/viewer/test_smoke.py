@@ -7,7 +7,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from conftest import node_env
+from browser_support import node_env
 from PIL import Image
 from render_scenes import showcase_target
 

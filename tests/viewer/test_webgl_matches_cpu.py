@@ -9,7 +9,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from conftest import node_env
+from browser_support import node_env
 from render_scenes import SHOWCASE_CAMERA, showcase_target
 
 from patchlight.render import Camera, Renderer, target_settings
