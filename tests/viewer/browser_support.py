@@ -22,6 +22,13 @@ def browser_missing() -> str | None:
     return None
 
 
+def three_missing() -> str | None:
+    """Why the viewer server cannot run here (it serves node_modules/three), or None."""
+    if not (REPO / "node_modules" / "three" / "build" / "three.module.js").is_file():
+        return "node_modules/three is missing (run npm ci, or tools/setup_browser.sh)"
+    return None
+
+
 def node_env() -> dict:
     """The environment for browser.mjs: node finds playwright-core in the repository's node_modules."""
     return {**os.environ, "NODE_PATH": str(REPO / "node_modules")}

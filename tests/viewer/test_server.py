@@ -11,6 +11,7 @@ import sys
 
 import numpy as np
 import pytest
+from browser_support import three_missing
 from render_scenes import showcase_target
 
 from patchlight.errors import PatchlightError
@@ -18,6 +19,8 @@ from patchlight.imaging.io import encode_png
 from patchlight.render import target_settings
 from patchlight.viewer.app import make_server
 from patchlight.viewer.server import ViewerServer, safe_file
+
+pytestmark = pytest.mark.skipif(three_missing() is not None, reason=str(three_missing()))
 
 
 @pytest.fixture(scope="module")
