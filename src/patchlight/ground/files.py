@@ -103,3 +103,38 @@ def read_map_pixels(directory, name: str) -> np.ndarray:
     """float32 (H, W, C) texels in [0, 1] of a map PNG in `directory`."""
     path = Path(directory) / name
     return decode_image(read_bytes(path), str(path))
+
+
+def load_ground_map(directory, block_compressed: bool = False):
+    """The hemisphere-radiosity model's inputs (shading.hemisphere_radiosity.GroundMapInputs)
+    from a ground map directory: its PNG texels, or with block_compressed its DDS texels as
+    a GPU decodes them. The offset is the manifest's, in mode "normal"."""
+    from ..shading.hemisphere_radiosity import GroundMapInputs
+
+    manifest = read_manifest(directory)
+    kind = "dds" if block_compressed else "png"
+
+    def texels(entry: dict) -> np.ndarray:
+        path = Path(directory) / entry[kind]
+        pixels = decode_dds(path) if block_compressed else _rgba(read_map_pixels(directory, entry["png"]))
+        return (pixels / np.float32(255.0)).astype(np.float32) if pixels.dtype == np.uint8 else pixels
+
+    files = manifest["files"]
+    inputs = GroundMapInputs(texture=texels(files["color"]), U=np.asarray(manifest["mapping"]["U"], np.float32),
+                             V=np.asarray(manifest["mapping"]["V"], np.float32), encoding=manifest["encoding"],
+                             map_scale=float(manifest["map_scale"]),
+                             sky_scale=np.asarray(manifest["sky_scale"], np.float32),
+                             offset=float(manifest.get("offset", 1.0)))
+    if "shadow" in files:
+        inputs.shadow = texels(files["shadow"])
+    inputs.validate()
+    return inputs
+
+
+def _rgba(pixels: np.ndarray) -> np.ndarray:
+    """(H, W, C) float32 in [0, 1] as (H, W, 4), alpha 1 where the image has none."""
+    if pixels.shape[-1] == 4:
+        return pixels
+    rgba = np.ones(pixels.shape[:2] + (4,), np.float32)
+    rgba[..., :3] = pixels[..., :3] if pixels.shape[-1] >= 3 else pixels[..., :1]
+    return rgba
