@@ -1,0 +1,54 @@
+"""`patchlight vertexbake SCENE_OR_BAKE_DIR -o out.glb`: incident light per vertex as COLOR_0.
+
+Each vertex takes the solved lightmap at its lightmap UV (the patches around it; see
+patchlight.volumes.vertex). COLOR_0 = the file's vertex colour x incident light I, linear,
+above 1 where the light is bright: drawn unlit, base colour x COLOR_0 is the lit surface."""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PatchlightError
+from .bake import add_scene_options
+from .volume import load_solved_from_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("vertexbake", help="bake incident light to vertex colours (COLOR_0)", description=__doc__)
+    p.add_argument("scene", metavar="SCENE_OR_BAKE_DIR",
+                   help="a bake directory, a .glb/.gltf file or a built-in scene (room, cornell)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.glb")
+    add_scene_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..scene.gltf import save_baked_glb
+    from ..volumes.vertex import vertex_incident, with_vertex_light
+
+    out = args.output
+    if out.suffix.lower() != ".glb":
+        raise PatchlightError(f"{out}: the output must be a .glb file")
+    if not out.parent.is_dir():
+        raise PatchlightError(f"{out}: directory {out.parent} does not exist")
+    started = time.perf_counter()
+    solved = load_solved_from_args(args, quiet=args.quiet or args.json)
+    incident = vertex_incident(solved)
+    save_baked_glb(with_vertex_light(solved.scene, incident), out)
+    summary = {"scene": solved.source, "output": str(out), "vertices": len(incident),
+               "incident_min": incident.min(axis=0).tolist(), "incident_max": incident.max(axis=0).tolist(),
+               "incident_mean": incident.mean(axis=0).tolist(), "seconds": time.perf_counter() - started}
+    if args.json:
+        json.dump(summary, sys.stdout, indent=2)
+        print()
+    elif not args.quiet:
+        peak = float(np.max(incident))
+        print(f"wrote {out}: {len(incident)} vertex colours (incident light up to {peak:.3g}) "
+              f"in {summary['seconds']:.1f} s")
+    return 0

@@ -1,0 +1,124 @@
+"""`patchlight volume SCENE_OR_BAKE_DIR -o DIR`: a light volume of ambient cubes.
+
+Each probe of a regular grid stores the incident light from six directions (+X, +Y, +Z, -X,
+-Y, -Z), gathered from the solved radiosity of a bake directory (or of the scene, baked
+first), the sky, and the lights through shadow rays. Writes DIR/light_volume.json (header,
+format in patchlight.volumes.io), DIR/light_volume.bin (data) and DIR/volume.json (stats)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ..errors import PatchlightError
+from ..volumes.probes import VolumeSettings
+from .bake import add_scene_options
+
+DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
+
+
+def parse_dims(text: str) -> tuple[int, int, int]:
+    try:
+        dims = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        dims = ()
+    if len(dims) != 3 or min(dims) < 1:
+        raise PatchlightError(f"--dims {text}: expected NX,NY,NZ (three whole numbers >= 1)")
+    return dims
+
+
+def register(sub) -> None:
+    p = sub.add_parser("volume", help="bake a light volume of ambient cubes", description=__doc__)
+    p.add_argument("scene", metavar="SCENE_OR_BAKE_DIR",
+                   help="a bake directory, a .glb/.gltf file or a built-in scene (room, cornell)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
+    size = p.add_mutually_exclusive_group()
+    size.add_argument("--spacing", type=float, metavar="M",
+                      help=f"metres between probes (default: the longest side / {DEFAULT_PROBES_ALONG_LONGEST - 1})")
+    size.add_argument("--dims", metavar="NX,NY,NZ", help="probe counts along X, Y and Z")
+    p.add_argument("--bounds", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box to fill with probes (default: the scene's bounds)")
+    p.add_argument("--rays", type=int, default=VolumeSettings().rays, metavar="N",
+                   help="gather rays per axis, rounded down to a square (default %(default)s)")
+    p.add_argument("--compact", action="store_true", help="store one colour and six intensities per probe")
+    p.add_argument("--seed", type=int, default=1)
+    add_scene_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print volume.json on stdout")
+    p.set_defaults(func=run)
+
+
+def sky_from_args(args):
+    """The Sky the flags ask for, or None to keep the scene's."""
+    from ..scene import Sky
+
+    if args.sky is not None:
+        return Sky.uniform(args.sky)
+    if args.sky_gradient is not None:
+        return Sky.gradient(*args.sky_gradient)
+    if args.sky_image is not None:
+        from ..imaging.io import read_environment
+
+        return Sky.from_image(read_environment(args.sky_image))
+    return None
+
+
+def load_solved_from_args(args, quiet: bool):
+    """The solved scene the arguments name, baked now (default settings, the flags' falloff
+    and sun angle) when it is not a bake directory."""
+    from ..config import BakeSettings
+    from ..solved import load_solved
+
+    settings = BakeSettings(falloff=args.falloff, sun_angle=args.sun_angle)
+    return load_solved(args.scene, settings, sky=sky_from_args(args), quiet=quiet)
+
+
+def choose_grid(args, scene):
+    from ..volumes.grid import check_overlap, grid_over, parse_bounds
+
+    scene_lo, scene_hi = scene.bounds()
+    if args.bounds:
+        lo, hi = parse_bounds(args.bounds)
+        check_overlap(lo, hi, scene_lo, scene_hi)
+    else:
+        lo, hi = scene_lo, scene_hi
+    if args.dims:
+        return grid_over(lo, hi, dims=parse_dims(args.dims))
+    spacing = args.spacing
+    if spacing is None:
+        spacing = max(float((hi - lo).max()), 1e-3) / (DEFAULT_PROBES_ALONG_LONGEST - 1)
+    return grid_over(lo, hi, spacing=spacing)
+
+
+def run(args) -> int:
+    from ..imaging.io import atomic_path
+    from ..volumes import bake_volume, write_volume
+
+    if not 1 <= args.rays <= 16384:
+        raise PatchlightError(f"--rays {args.rays}: must lie in 1..16384")
+    if args.output.exists() and not args.output.is_dir():
+        raise PatchlightError(f"{args.output}: exists and is not a directory")
+    quiet = args.quiet or args.json
+    if not Path(args.scene).is_dir():  # a scene to bake first: refuse a bad grid before the bake
+        from ..scene import load_scene
+
+        choose_grid(args, load_scene(args.scene))
+    solved = load_solved_from_args(args, quiet)
+    grid = choose_grid(args, solved.scene)
+    settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
+    volume, stats = bake_volume(solved, grid, settings, quiet=quiet)
+    args.output.mkdir(parents=True, exist_ok=True)
+    header = write_volume(args.output, volume, "compact" if args.compact else "full")
+    stats["layout"] = header["layout"]
+    stats["files"] = [header["data"], "light_volume.json", "volume.json"]
+    with atomic_path(args.output / "volume.json") as tmp:
+        tmp.write_text(json.dumps(stats, indent=2, default=float))
+    if args.json:
+        json.dump(stats, sys.stdout, indent=2, default=float)
+        print()
+    elif not args.quiet:
+        nx, ny, nz = grid.dims
+        print(f"baked {grid.count} probes ({nx} x {ny} x {nz}, {stats['inside_geometry_probes']} inside geometry) "
+              f"in {stats['seconds']:.1f} s: {stats['probes_per_second']:.0f} probes/s, "
+              f"{stats['rays_per_second'] / 1e6:.2f} Mrays/s")
+        print(f"results in {args.output}/: light_volume.json light_volume.bin volume.json")
+    return 0

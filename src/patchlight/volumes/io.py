@@ -1,0 +1,140 @@
+"""The light-volume file: a JSON header `light_volume.json` and its data `light_volume.bin`.
+
+Header fields (every length in metres, +Y up, glTF's frame):
+
+| field      | value                                                                      |
+|------------|----------------------------------------------------------------------------|
+| format     | "patchlight-light-volume"                                                  |
+| version    | 1                                                                          |
+| origin     | [x, y, z] of probe (0, 0, 0)                                               |
+| spacing    | [sx, sy, sz]: probe (i, j, k) sits at origin + (i sx, j sy, k sz)          |
+| dims       | [NX, NY, NZ] probe counts                                                  |
+| axes       | ["+X", "+Y", "+Z", "-X", "-Y", "-Z"]: the order of the six directions      |
+| units      | incident light I (cosine-weighted mean radiance, W m^-2 sr^-1), linear RGB |
+| layout     | "full" (six RGB values per probe) or "compact" (colour + six intensities)  |
+| data       | file name of the binary data, next to the header                           |
+| byte_order | "little"                                                                   |
+| sections   | [{name, dtype, shape, offset, bytes}]: the arrays in the data file, C order |
+
+Sections: layout "full": `cube` float32 [6, NZ, NY, NX, 3], i.e. six 3D RGB volumes one
+after the other in axis order, x fastest (a WebGL 3D texture of NX x NY x 6 NZ texels).
+Layout "compact": `color` float32 [NZ, NY, NX, 3] (luminance 1) and `intensity` float32
+[6, NZ, NY, NX]; axis a's RGB is color x intensity[a] (see patchlight.volumes.volume).
+Both end with `inside` uint8 [NZ, NY, NX]: 1 where the probe lay inside geometry and its
+values were filled in from its neighbours.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PatchlightError
+from ..imaging.io import atomic_path, read_bytes
+from .grid import ProbeGrid
+from .volume import AXES, LightVolume, compact, expand
+
+HEADER = "light_volume.json"
+DATA = "light_volume.bin"
+FORMAT = "patchlight-light-volume"
+VERSION = 1
+UNITS = "incident light I (cosine-weighted mean radiance, W m^-2 sr^-1), linear RGB"
+_DTYPES = {"float32": np.dtype("<f4"), "uint8": np.dtype("u1")}
+
+
+def _sections(volume: LightVolume, layout: str) -> list[tuple[str, np.ndarray]]:
+    if layout == "full":
+        arrays = [("cube", volume.cube)]
+    elif layout == "compact":
+        color, intensity = compact(volume.cube)
+        arrays = [("color", color), ("intensity", intensity)]
+    else:
+        raise ValueError(f"unknown volume layout {layout!r}")
+    return arrays + [("inside", volume.inside.astype(np.uint8))]
+
+
+def write_volume(out_dir, volume: LightVolume, layout: str = "full") -> dict:
+    """Write the header and data into out_dir (which must exist), each atomically, the data
+    first so a header never names missing data. Returns the header."""
+    out_dir = Path(out_dir)
+    sections, blobs, offset = [], [], 0
+    for name, array in _sections(volume, layout):
+        dtype = "uint8" if array.dtype == np.uint8 else "float32"
+        blob = np.ascontiguousarray(array, _DTYPES[dtype]).tobytes()
+        sections.append({"name": name, "dtype": dtype, "shape": list(array.shape), "offset": offset,
+                         "bytes": len(blob)})
+        blobs.append(blob)
+        offset += len(blob)
+    header = {"format": FORMAT, "version": VERSION, **volume.grid.to_json(), "axes": list(AXES),
+              "units": UNITS, "layout": layout, "data": DATA, "byte_order": "little", "sections": sections}
+    with atomic_path(out_dir / DATA) as tmp:
+        tmp.write_bytes(b"".join(blobs))
+    with atomic_path(out_dir / HEADER) as tmp:
+        tmp.write_text(json.dumps(header, indent=2))
+    return header
+
+
+def read_volume(path) -> LightVolume:
+    """The volume in a directory (or named by its header file), either layout."""
+    path = Path(path)
+    header_path = path / HEADER if path.is_dir() else path
+    if path.is_dir() and not header_path.exists():
+        raise PatchlightError(f"{path}: no {HEADER} in it (write one with `patchlight volume`)")
+    try:
+        header = json.loads(read_bytes(header_path))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PatchlightError(f"{header_path}: not JSON ({exc})") from None
+    grid = _grid(header, header_path)
+    arrays = _read_sections(header, header_path)
+    if header.get("layout") == "compact":
+        cube = expand(_get(arrays, "color", header_path), _get(arrays, "intensity", header_path))
+    else:
+        cube = _get(arrays, "cube", header_path)
+    inside = _get(arrays, "inside", header_path).astype(bool)
+    try:
+        return LightVolume(grid, np.ascontiguousarray(cube, np.float32), inside)
+    except ValueError:
+        raise PatchlightError(f"{header_path}: section shapes do not match dims {list(grid.dims)}") from None
+
+
+def _grid(header, where: Path) -> ProbeGrid:
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise PatchlightError(f"{where}: not a patchlight light volume (format is not {FORMAT!r})")
+    if header.get("version") != VERSION:
+        raise PatchlightError(f"{where}: volume version {header.get('version')!r}, this patchlight reads {VERSION}")
+    if header.get("axes") != list(AXES):
+        raise PatchlightError(f"{where}: axes must be {list(AXES)}")
+    try:
+        origin = [float(v) for v in header["origin"]]
+        spacing = [float(v) for v in header["spacing"]]
+        dims = [int(v) for v in header["dims"]]
+    except (KeyError, TypeError, ValueError):
+        raise PatchlightError(f"{where}: origin, spacing and dims must be lists of numbers") from None
+    if len(origin) != 3 or len(spacing) != 3 or len(dims) != 3 or min(dims) < 1 or min(spacing) <= 0 \
+            or not np.all(np.isfinite(origin + spacing)):
+        raise PatchlightError(f"{where}: origin, spacing and dims need three finite values, spacing > 0, dims >= 1")
+    return ProbeGrid(tuple(origin), tuple(spacing), tuple(dims))
+
+
+def _read_sections(header: dict, where: Path) -> dict[str, np.ndarray]:
+    data = read_bytes(where.parent / str(header.get("data", DATA)))
+    arrays = {}
+    for section in header.get("sections", []):
+        try:
+            name, dtype = section["name"], _DTYPES[section["dtype"]]
+            shape, offset = [int(n) for n in section["shape"]], int(section["offset"])
+        except (KeyError, TypeError, ValueError):
+            raise PatchlightError(f"{where}: a section lacks name, dtype (float32 or uint8), shape or offset") from None
+        size = int(np.prod(shape)) * dtype.itemsize
+        if offset < 0 or offset + size > len(data):
+            raise PatchlightError(f"{where}: section {name} runs past the end of {header.get('data', DATA)} "
+                                  f"({offset + size} > {len(data)} bytes)")
+        arrays[name] = np.frombuffer(data, dtype, int(np.prod(shape)), offset).reshape(shape)
+    return arrays
+
+
+def _get(arrays: dict, name: str, where: Path) -> np.ndarray:
+    if name not in arrays:
+        raise PatchlightError(f"{where}: no {name!r} section")
+    return arrays[name]

@@ -1,0 +1,57 @@
+"""A light volume: a grid of ambient cubes, each the incident light from six axis directions.
+
+The value of axis a at a probe is the incident light I (DESIGN.md: cosine-weighted mean
+radiance) that a small patch at the probe facing along a would receive: a uniform
+environment of radiance L gives L on all six axes. Axis order follows the article's two
+vectors posLum and negLum: +X, +Y, +Z, then -X, -Y, -Z.
+
+The compact form is the article's "light colour and six intensity values": intensity_a is
+the Rec. 709 luminance of axis a's RGB, and the colour is the sum of the six RGB values over
+the sum of the six intensities (so its luminance is 1). colour x intensity_a gives back axis
+a's RGB exactly when all six share one chromaticity, as under a single light; otherwise the
+six directions share the probe's mean chromaticity.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .grid import ProbeGrid
+
+AXES = ("+X", "+Y", "+Z", "-X", "-Y", "-Z")
+AXIS_VECTORS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, -1]], np.float32)
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 weights of linear RGB
+
+
+@dataclass
+class LightVolume:
+    """grid: where the probes are; cube (6, NZ, NY, NX, 3) f32 incident light per axis (AXES
+    order); inside (NZ, NY, NX) bool: probes found inside geometry, whose values were filled
+    in from valid neighbours."""
+
+    grid: ProbeGrid
+    cube: np.ndarray
+    inside: np.ndarray
+
+    def __post_init__(self):
+        shape = self.grid.shape
+        if self.cube.shape != (6, *shape, 3) or self.inside.shape != shape:
+            raise ValueError(f"LightVolume: cube {self.cube.shape} / inside {self.inside.shape} "
+                             f"do not match the grid's {shape}")
+
+
+def compact(cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The article's compact form of cube (6, ..., 3): colour (..., 3) with luminance 1 (white
+    where the probe is black) and intensities (6, ...), the luminance of each axis."""
+    intensity = (cube @ LUMINANCE).astype(np.float32)
+    total = intensity.sum(axis=0)
+    summed = cube.sum(axis=0)
+    safe = np.where(total > 0, total, 1.0)[..., None]
+    color = np.where(total[..., None] > 0, summed / safe, 1.0).astype(np.float32)
+    return color, intensity
+
+
+def expand(color: np.ndarray, intensity: np.ndarray) -> np.ndarray:
+    """cube (6, ..., 3) from the compact form: colour (..., 3) x each axis' intensity (6, ...)."""
+    return (color[None] * intensity[..., None]).astype(np.float32)

@@ -1,0 +1,141 @@
+"""The volume bake against known answers: uniform surroundings, colour bleeding, a sun patch,
+probes inside walls and on their faces, and the floor's excident light seen from just above."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from volume_scenes import constant_solved, floor, speck_under_sky, sun
+
+from patchlight.bake import bake
+from patchlight.config import BakeSettings
+from patchlight.scene import SceneBuilder, Sky
+from patchlight.solved import SolvedScene, load_solved
+from patchlight.volumes import ProbeGrid, VolumeSettings, bake_volume, grid_over
+from patchlight.volumes.fill import fill_invalid
+
+FAST = VolumeSettings(rays=64)
+
+
+def probe(volume, i=0, j=0, k=0) -> np.ndarray:
+    """(6, 3) values of probe (i, j, k) in axis order +X, +Y, +Z, -X, -Y, -Z."""
+    return volume.cube[:, k, j, i]
+
+
+def test_uniform_sky_gives_six_equal_values():
+    L = np.array([0.3, 0.5, 0.7], np.float32)
+    volume, stats = bake_volume(speck_under_sky(L), grid_over((0, 0, 0), (1, 1, 1), dims=(2, 2, 2)), FAST)
+    np.testing.assert_allclose(volume.cube.reshape(-1, 3), np.tile(L, (48, 1)), rtol=1e-5)
+    assert stats["inside_geometry_probes"] == 0 and stats["filled_values"] == 0
+
+
+def test_furnace_box_gives_its_walls_excident_on_every_axis():
+    """Inside a closed box every ray meets a wall leaving B = rho I + E, whatever its direction."""
+    b = SceneBuilder()
+    b.box((-1, -1, -1), (1, 1, 1), b.material("wall", (0.6, 0.4, 0.2), emissive=(0.1, 0.2, 0.3)), inward=True)
+    solved = constant_solved(b.scene("furnace"), (2.0, 1.0, 0.5))
+    volume, _ = bake_volume(solved, grid_over((-0.5, -0.5, -0.5), (0.5, 0.5, 0.5), dims=(3, 3, 3)), FAST)
+    expected = np.array([0.6 * 2.0 + 0.1, 0.4 * 1.0 + 0.2, 0.2 * 0.5 + 0.3], np.float32)
+    np.testing.assert_allclose(volume.cube.reshape(-1, 3), np.tile(expected, (6 * 27, 1)), rtol=1e-5)
+
+
+@pytest.fixture(scope="module")
+def cornell() -> SolvedScene:
+    return load_solved("cornell", BakeSettings(resolution=32, rays=64))
+
+
+def test_probe_beside_the_red_wall_is_red_on_the_axis_facing_it(cornell):
+    """Red wall at x = 0.55 m, green wall at x = 0: colour bleeds onto the axis facing each."""
+    grid = ProbeGrid((0.05, 0.3, 0.28), (0.45, 1.0, 1.0), (2, 1, 1))
+    volume, _ = bake_volume(cornell, grid, VolumeSettings(rays=256))
+    by_green, by_red = probe(volume, 0), probe(volume, 1)
+    plus_x, minus_x = 0, 3
+    assert by_red[plus_x, 0] > 5 * by_red[plus_x, 1]           # facing the red wall: red
+    assert by_green[minus_x, 1] > 1.5 * by_green[minus_x, 0]   # facing the green wall: green
+    assert by_red[minus_x, 0] < 2 * by_red[minus_x, 1]         # facing away: no longer red
+
+
+def test_probe_in_a_sun_patch_is_bright_on_the_axes_facing_the_sun():
+    """A dark roof over x < 0 and a hard sun towards (0.6, 0.8, 0): the probe in the sun gets
+    I = Es cos / pi on +Y (cos 0.8) and +X (cos 0.6), nothing on the others; the probe under
+    the roof gets nothing."""
+    b = SceneBuilder()
+    b.quad([[-6, 2, -3], [0, 2, -3], [0, 2, 3], [-6, 2, 3]], b.material("roof", (0.5, 0.5, 0.5)), (0, -1, 0))
+    Es = 2 * np.pi
+    solved = constant_solved(b.scene("roof", lights=[sun((0.6, 0.8, 0.0), Es)]), (0, 0, 0))
+    volume, _ = bake_volume(solved, ProbeGrid((-2.0, 1.0, 0.0), (4.0, 1.0, 1.0), (2, 1, 1)), FAST)
+    shaded, lit = probe(volume, 0), probe(volume, 1)
+    expected = np.zeros((6, 3), np.float32)
+    expected[1], expected[0] = 2 * 0.8, 2 * 0.6
+    np.testing.assert_allclose(lit, expected, atol=1e-5)
+    np.testing.assert_allclose(shaded, 0, atol=1e-6)
+
+
+def thick_wall_under_sky():
+    """A solid wall 1 m thick across x in [-0.5, 0.5] under a uniform sky of 1; walls leave 0.5."""
+    b = SceneBuilder()
+    b.box((-0.5, -3, -3), (0.5, 3, 3), b.material("wall", (0.5, 0.5, 0.5)))
+    return constant_solved(b.scene("wall", sky=Sky.uniform((1, 1, 1))), (1, 1, 1))
+
+
+def test_probes_inside_a_wall_are_marked_and_filled_from_both_sides():
+    grid = grid_over((-1.2, 0, 0), (1.2, 0, 0), dims=(5, 1, 1))  # x = -1.2, -0.6, 0, 0.6, 1.2
+    volume, stats = bake_volume(thick_wall_under_sky(), grid, FAST)
+    assert volume.inside[0, 0].tolist() == [False, False, True, False, False]
+    assert stats["inside_geometry_probes"] == 1
+    np.testing.assert_allclose(probe(volume, 2), (probe(volume, 1) + probe(volume, 3)) / 2, rtol=1e-6)
+    assert probe(volume, 2).min() > 0.4  # not darkened: the sky and the wall's 0.5 all round
+
+
+def test_probes_on_a_huts_inner_wall_faces_take_the_rooms_light_not_the_skys():
+    """A closed hut of 0.2 m solid walls around a 2 m room, dim inside (walls leave 0.05) under a
+    bright sky of 10. The grid puts probes exactly on the inner faces (x, z = 0 and 2), and
+    outside (x, z = -0.5 and 2.5, in the sky): those on the faces must look like the room."""
+    b = SceneBuilder()
+    m = b.material("wall", (0.5, 0.5, 0.5))
+    t = 0.2
+    b.box((-t, -t, -t), (2 + t, 0, 2 + t), m)
+    b.box((-t, 2, -t), (2 + t, 2 + t, 2 + t), m)
+    b.box((-t, 0, -t), (0, 2, 2 + t), m)
+    b.box((2, 0, -t), (2 + t, 2, 2 + t), m)
+    b.box((0, 0, -t), (2, 2, 0), m)
+    b.box((0, 0, 2), (2, 2, 2 + t), m)
+    solved = constant_solved(b.scene("hut", sky=Sky.uniform((10, 10, 10))), (0.1, 0.1, 0.1))
+    grid = ProbeGrid((-0.5, 1.0, -0.5), (0.5, 1.0, 0.5), (7, 1, 7))
+    volume, _ = bake_volume(solved, grid, FAST)
+    values = volume.cube[:, :, 0, :, 0]  # (6, NZ, NX) red
+    room = values[:, 2:5, 2:5]
+    np.testing.assert_allclose(room, 0.05, rtol=1e-4)
+    faces = values[:, 1:6, 1:6].copy()
+    faces[:, 1:4, 1:4] = np.nan
+    assert np.nanmax(faces) < 0.06 and np.nanmin(faces) > 0.04
+    assert values[:, 0, :].max() > 5 and values[:, :, 0].max() > 5  # the probes outside see the sky
+
+
+def test_fill_follows_the_open_side():
+    """Three probes along X: sky-lit 100, invalid, room-lit 1. Open towards +X, the middle one
+    takes the room's value; with no open side, the mean of both."""
+    cube = np.zeros((6, 1, 1, 3, 3), np.float32)
+    cube[:, 0, 0, 0], cube[:, 0, 0, 2] = 100.0, 1.0
+    invalid = np.zeros((6, 1, 1, 3), bool)
+    invalid[:, 0, 0, 1] = True
+    side = np.zeros((1, 1, 3, 3), np.float32)
+    side[0, 0, 1] = (1, 0, 0)
+    np.testing.assert_allclose(fill_invalid(cube, invalid, side)[:, 0, 0, 1], 1.0)
+    np.testing.assert_allclose(fill_invalid(cube, invalid, np.zeros_like(side))[:, 0, 0, 1], 50.5)
+
+
+def test_probe_above_a_lit_floor_sees_its_excident_light_below():
+    """Just above a 40 m floor under a sun and a uniform sky, -Y sees the floor leaving
+    rho x (the lightmap's I there), and +Y sees the sky and the sun: L + Es cos / pi."""
+    rho, L, Es = 0.5, 0.4, 3.0
+    to_sun = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
+    scene = floor(20.0, (rho, rho, rho), lights=[sun(to_sun, Es)], sky=Sky.uniform((L, L, L)))
+    result = bake(scene, BakeSettings(resolution=16, rays=64))
+    solved = SolvedScene(result.scene, result.lightmap, "floor")
+    volume, _ = bake_volume(solved, ProbeGrid((0.0, 0.05, 0.0), (1.0, 1.0, 1.0), (1, 1, 1)), VolumeSettings(rays=1024))
+    tri = np.flatnonzero(np.abs(result.scene.positions[result.scene.indices].mean(axis=1)).max(axis=1) < 20.0)[:1]
+    floor_I = solved.incident(tri, np.array([1 / 3], np.float32), np.array([1 / 3], np.float32))[0]
+    sky_and_sun = L + Es * to_sun[1] / np.pi
+    np.testing.assert_allclose(floor_I, sky_and_sun, rtol=0.01)  # the bake itself
+    np.testing.assert_allclose(probe(volume)[4], rho * floor_I, rtol=0.01)
+    np.testing.assert_allclose(probe(volume)[1], sky_and_sun, rtol=1e-4)

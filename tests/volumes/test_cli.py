@@ -1,0 +1,105 @@
+"""`patchlight volume` and `patchlight vertexbake` end to end, and their bad-input messages."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from volume_scenes import floor
+
+from patchlight.cli.main import main
+from patchlight.scene import Sky
+from patchlight.scene.gltf import load_gltf, save_baked_glb
+from patchlight.solved import load_solved
+from patchlight.volumes import read_volume
+from patchlight.volumes.vertex import vertex_incident
+
+
+def run(capsys, *argv):
+    status = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+@pytest.fixture(scope="module")
+def cornell_bake(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bake") / "cornell"
+    assert main(["bake", "cornell", "-o", str(out), "--resolution", "32", "--rays", "16", "--quiet"]) == 0
+    return out
+
+
+def test_volume_writes_header_data_and_stats(cornell_bake, tmp_path, capsys):
+    status, stdout, _ = run(capsys, "volume", cornell_bake, "-o", tmp_path / "v", "--dims", "3,2,4", "--rays", "16", "--json")
+    assert status == 0
+    stats = json.loads(stdout)
+    assert stats["probes"] == 24 and stats["dims"] == [3, 2, 4] and stats["rays_per_axis"] == 16
+    for key in ("inside_geometry_probes", "rays_traced", "seconds", "probes_per_second", "rays_per_second"):
+        assert key in stats
+    assert json.loads((tmp_path / "v" / "volume.json").read_text())["probes"] == 24
+    volume = read_volume(tmp_path / "v")
+    assert volume.cube.shape == (6, 4, 2, 3, 3) and volume.cube.min() >= 0 and volume.cube.max() > 0
+    assert sorted(p.name for p in (tmp_path / "v").iterdir()) == ["light_volume.bin", "light_volume.json", "volume.json"]
+
+
+def test_volume_compact_and_spacing(cornell_bake, tmp_path, capsys):
+    status, _, _ = run(capsys, "volume", cornell_bake, "-o", tmp_path / "v", "--spacing", "0.25", "--rays", "16",
+                       "--compact", "--quiet", "--bounds", "0,0,0,0.5,0.5,0.5")
+    assert status == 0
+    header = json.loads((tmp_path / "v" / "light_volume.json").read_text())
+    assert header["layout"] == "compact" and header["dims"] == [3, 3, 3] and header["spacing"] == [0.25] * 3
+    assert [s["name"] for s in header["sections"]] == ["color", "intensity", "inside"]
+    assert read_volume(tmp_path / "v").cube.shape == (6, 3, 3, 3, 3)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--spacing", "0.0001"], r"5\d\d\d x 5\d\d\d x 5\d\d\d = [\d,]+ probes is more than the limit of 10,000,000"),
+    (["--dims", "3000,3000,3000"], r"27,000,000,000 probes is more than the limit"),
+    (["--bounds", "5,5,5,6,6,6"], r"--bounds 5,5,5,6,6,6: outside the scene, whose bounds are"),
+    (["--bounds", "1,2,3"], r"expected X0,Y0,Z0,X1,Y1,Z1"),
+    (["--bounds", "1,1,1,0,2,2"], r"must be at least X0"),
+    (["--dims", "3,x,3"], r"--dims 3,x,3: expected NX,NY,NZ"),
+    (["--dims", "3,0,3"], r"expected NX,NY,NZ"),
+    (["--spacing", "-1"], r"--spacing -1.0: must be a positive number"),
+    (["--rays", "0"], r"--rays 0: must lie in 1..16384"),
+])
+def test_volume_bad_input_is_one_line_and_writes_nothing(cornell_bake, tmp_path, capsys, args, message):
+    status, _, err = run(capsys, "volume", cornell_bake, "-o", tmp_path / "v", *args)
+    assert status == 2
+    assert err.count("\n") == 1 and err.startswith("patchlight: error: ")
+    assert __import__("re").search(message, err), err
+    assert not (tmp_path / "v").exists()
+
+
+def test_volume_refuses_a_directory_that_is_not_a_bake(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    status, _, err = run(capsys, "volume", tmp_path / "empty", "-o", tmp_path / "v")
+    assert status == 2 and "not a bake" in err and err.count("\n") == 1
+
+
+def test_vertex_colours_survive_the_gltf_round_trip(cornell_bake, tmp_path, capsys):
+    out = tmp_path / "vc.glb"
+    status, _, _ = run(capsys, "vertexbake", cornell_bake, "-o", out, "--quiet")
+    assert status == 0
+    colors = load_gltf(out).colors
+    expected = vertex_incident(load_solved(cornell_bake))
+    assert colors[:, :3].tobytes() == expected.tobytes()
+    np.testing.assert_array_equal(colors[:, 3], 1.0)
+    assert colors[:, 0].max() > 1.0  # linear incident light, not clipped
+
+
+def test_vertex_colours_of_an_open_floor_under_a_uniform_sky_are_the_sky(tmp_path, capsys):
+    """An unoccluded floor under a sky of radiance L receives I = L at every vertex; the file's own
+    vertex colours multiply it."""
+    scene = floor(1.0, sky=Sky.uniform((0.2, 0.4, 0.8)))
+    scene.colors = np.tile(np.array([[0.5, 1.0, 1.0, 1.0]], np.float32), (len(scene.positions), 1))
+    save_baked_glb(scene, tmp_path / "floor.glb")
+    status, stdout, _ = run(capsys, "vertexbake", tmp_path / "floor.glb", "-o", tmp_path / "out.glb", "--json")
+    assert status == 0 and json.loads(stdout)["vertices"] > 0
+    colors = load_gltf(tmp_path / "out.glb").colors
+    np.testing.assert_allclose(colors, np.tile([0.1, 0.4, 0.8, 1.0], (len(colors), 1)), rtol=1e-3)
+
+
+@pytest.mark.parametrize("output, message", [("out.png", "must be a .glb file"), ("missing/out.glb", "does not exist")])
+def test_vertexbake_bad_output(cornell_bake, tmp_path, capsys, output, message):
+    status, _, err = run(capsys, "vertexbake", cornell_bake, "-o", tmp_path / output)
+    assert status == 2 and message in err and err.count("\n") == 1
