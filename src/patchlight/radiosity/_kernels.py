@@ -112,13 +112,14 @@ def interpolate_in_order(G, status, targets, neighbours, computed, interpolated,
 
 
 @nb.njit(cache=True)
-def item_buffer_rows(seen, weights, sky_radiance):
+def item_buffer_rows(seen, weights, sky_radiance, n_patches):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
-    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
-    Returns CSR (indptr (R+1,), indices, data) with duplicate columns summed, the sky term
-    (R, 3) and the share of each patch's rays that hit back faces (R,).
+    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order;
+    n_patches: N, the number of columns. Returns CSR (indptr (R+1,), indices, data; columns in
+    first-seen order, duplicates summed), the sky term (R, 3) and the share of each patch's
+    rays that hit back faces (R,).
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
@@ -127,34 +128,28 @@ def item_buffer_rows(seen, weights, sky_radiance):
     data = np.empty(seen.shape[0], np.float32)
     sky = np.zeros((rows, 3), np.float32)
     back = np.zeros(rows, np.float32)
-    ids = np.empty(d, np.int32)
-    wts = np.empty(d, np.float32)
+    row_of_column = np.full(n_patches, -1, np.int64)  # last row that saw each patch ...
+    slot = np.empty(n_patches, np.int64)              # ... and where its entry is
     nnz = 0
     k_sky = 0
     for r in range(rows):
-        m = 0
         for j in range(d):
             s = seen[r * d + j]
             if s >= 0:
-                ids[m] = s
-                wts[m] = weights[j]
-                m += 1
+                if row_of_column[s] == r:
+                    data[slot[s]] += weights[j]
+                else:
+                    row_of_column[s] = r
+                    slot[s] = nnz
+                    indices[nnz] = s
+                    data[nnz] = weights[j]
+                    nnz += 1
             elif s == SKY:
                 for c in range(3):
                     sky[r, c] += weights[j] * sky_radiance[k_sky, c]
                 k_sky += 1
             elif s == BACK_FACE:
                 back[r] += 1.0
-        order = np.argsort(ids[:m])
-        last = -1
-        for k in order:
-            if ids[k] == last:
-                data[nnz - 1] += wts[k]
-            else:
-                last = ids[k]
-                indices[nnz] = last
-                data[nnz] = wts[k]
-                nnz += 1
         indptr[r + 1] = nnz
         back[r] /= d
     return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back

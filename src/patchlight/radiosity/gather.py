@@ -93,7 +93,7 @@ class Gatherer:
         radiance = np.zeros((int(sky.sum()), 3), np.float32)
         if self.sky is not None and len(radiance):
             radiance = self.sky.radiance(dirs[sky]).astype(np.float32)
-        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance, len(p))
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(p)))
         if progress is not None:
             progress(len(rows))
