@@ -151,7 +151,7 @@ class Renderer:
         settings.validate()
         eye = np.asarray(origins[0], np.float32)
         self.require_inputs(settings)
-        if settings.model == "envmap" and env is None:
+        if settings.model in ("envmap", "hemisphere-radiosity") and env is None:
             env = self.environment(settings)
         materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
         hits = self.trace(origins, directions, where)

@@ -19,6 +19,7 @@
 #include "normal_map.glsl"
 #include "material.glsl"
 #include "lighting.glsl"
+#include "hemisphere_radiosity.glsl"
 #include "compose.glsl"
 #include "display.glsl"
 

@@ -38,9 +38,16 @@ void main() {
     vec3 V = normalize(cameraPosition - v_position);
     Lighting lit = light_surface(v_position, N, V, gloss, shininess, reflectivity);
 #endif
+#if MODEL == MODEL_HEMISPHERE_RADIOSITY
+    vec3 baked = hemisphere_radiosity(v_position, v_normal);
+#else
     vec3 baked = lightmap_light(v_uv1);
+#endif
     vec4 env = texture(env_map, lit.reflected);
     vec3 radiance = compose_surface(color, surface_emission(v_uv0), lit, baked, env, reflectivity);
+#if MODEL == MODEL_HEMISPHERE_RADIOSITY
+    radiance = apply_fog(radiance, fog_factor(v_position, cameraPosition));
+#endif
     gl_FragColor = vec4(display_encode(radiance, exposure), 1.0);
 #endif
 }

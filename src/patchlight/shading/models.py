@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PatchlightError
+from .hemisphere_radiosity import (GroundMapInputs, apply_fog, check_ambient, fog_factor, hemisphere_radiosity,
+                                   hemisphere_radiosity_color, neutral_ground_map)
 from .lights import PunctualLight, incident_light
 from .terms import (blinn_phong_specular, decode_normal, envmap_color, fresnel_term, hemisphere_light,
                     lambert_diffuse, normalize, perturb_normal, phong_specular, reflect_view, self_shadow)
@@ -20,7 +22,8 @@ from .textures import sample_bilinear, sample_cube
 DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim, so unlit sides stay visible
 
 # Index = the GLSL MODEL_* number (common.glsl).
-MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap")
+MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap",
+          "hemisphere-radiosity")
 LIT_MODELS = MODELS[1:]
 
 
@@ -34,7 +37,8 @@ class ShadingSettings:
     by the materials' normal maps, with the colour alpha as gloss. lightmap_specular: add the
     lights' Blinn-Phong highlight to the lightmap model. exposure: k of the display curve
     1 - exp(-k x) for PNGs and the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
-    material's, or None to keep theirs."""
+    material's, or None to keep theirs. ground_map: the hemisphere-radiosity model's baked
+    ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`)."""
 
     model: str = "lambert"
     lights: list[PunctualLight] = field(default_factory=list)
@@ -46,6 +50,11 @@ class ShadingSettings:
     lightmap_specular: bool = False
     exposure: float = 1.0
     reflectivity: float | None = None
+    ground_map: GroundMapInputs | None = None
+
+    def radiosity_inputs(self) -> GroundMapInputs:
+        """The hemisphere-radiosity model's map: the baked one, else one texel of `ground`."""
+        return self.ground_map or neutral_ground_map(self.sky, self.ground)
 
     def validate(self) -> None:
         if self.model not in MODELS:
@@ -56,6 +65,9 @@ class ShadingSettings:
             raise PatchlightError(f"--exposure {self.exposure}: must be a positive number")
         if self.reflectivity is not None and not 0 <= self.reflectivity <= 1:
             raise PatchlightError(f"--reflectivity {self.reflectivity}: must lie in [0, 1]")
+        if self.model == "hemisphere-radiosity":
+            check_ambient(self.ambient)
+            self.radiosity_inputs().validate()
 
 
 @dataclass
@@ -189,7 +201,8 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
     """surface_fragment.glsl on N pixels: linear radiance (N, 3) f32.
 
     eye (3,) camera position; lightmap (H, W, 3) incident light at uv1, needed by the
-    lightmap model; env (6, S, S, 4) cube map (RGB radiance, A highlight), needed by envmap."""
+    lightmap model; env (6, S, S, 4) cube map (RGB radiance, A highlight), needed by envmap and
+    hemisphere-radiosity."""
     model = settings.model
     mat = frags.material
     color = surface_color(materials, mat, frags.uv0, frags.color)
@@ -209,6 +222,12 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
         V = normalize(eye.astype(np.float32) - frags.position)
         lit = light_surface(settings, frags.position, N, V, gloss, shininess, reflectivity)
     emission = surface_emission(materials, mat, frags.uv0)
+    if model == "hemisphere-radiosity":  # compose.glsl's branch, then surface_fragment.glsl's fog
+        m = settings.radiosity_inputs()
+        radiance = hemisphere_radiosity_color(m, color[:, :3], sample_cube(env, lit.reflected), lit.diffuse,
+                                              lit.fresnel, hemisphere_radiosity(m, frags.position, frags.normal),
+                                              reflectivity, settings.ambient) + emission
+        return apply_fog(m, radiance, fog_factor(m, frags.position, eye))
     baked = lightmap_light(lightmap, frags.uv1) if model == "lightmap" else None
     env_texels = sample_cube(env, lit.reflected) if model == "envmap" else None
     return compose_surface(model, color, emission, lit, baked, env_texels, reflectivity).astype(np.float32)
