@@ -13,6 +13,7 @@
 | adaptive          | bool          | True           | compute every 4th texel, refine where neighbours differ         |
 | accuracy          | ratio         | 0.98           | refinement threshold = accuracy ** spacing (0..1; 0.98)         |
 | sun_samples       | rays / texel  | 16             | shadow rays over the sun's disc when its angle is > 0           |
+| texel_samples     | per axis      | 2              | direct light averaged over n x n points of each texel (1..4)    |
 | sun_angle         | degrees       | None           | override the sun's angular diameter (0 = hard; 0.53 real sun)   |
 | falloff           | str           | inverse-square | point/spot falloff when a light names none: or "range"         |
 | exposure          | 1 / radiance  | "auto"         | PNG = 1 - exp(-k I); auto puts the 90th percentile at 0.8       |
@@ -41,6 +42,7 @@ class BakeSettings:
     adaptive: bool = True
     accuracy: float = 0.98
     sun_samples: int = 16
+    texel_samples: int = 2
     sun_angle: float | None = None
     falloff: str = "inverse-square"
     exposure: float | str = "auto"

@@ -64,7 +64,7 @@ def test_sun_on_unoccluded_plane_gives_irradiance_cos_over_pi(elevation):
 
 def _lamp_plane(light, falloff="inverse-square"):
     result = bake(plane(size=8.0, rgb=(0, 0, 0)).scene("plane", lights=[light]),
-                  BakeSettings(resolution=64, falloff=falloff))
+                  BakeSettings(resolution=64, falloff=falloff, texel_samples=1))
     incident, position, normal = valid(result)
     origins = position + ray_offsets(result.scene, result.patches)[result.status != adaptive.INSIDE, None] * normal
     to_light = light.position - origins
@@ -122,6 +122,11 @@ def test_shadow_edge_lands_where_geometry_says():
     assert in_shadow.sum() > 20 and clearly_lit.sum() > 100
     assert not lit[in_shadow].any()
     assert lit[clearly_lit].all()
+    # 2 x 2 points per texel: texels the edge crosses get partial light, and only those
+    full = 3.0 * np.cos(np.pi / 4) / np.pi
+    partial = (result.solution.incident[floor, 0] > 0.1 * full) & (result.solution.incident[floor, 0] < 0.9 * full)
+    assert partial.sum() > 10
+    assert not partial[in_shadow | clearly_lit].any()
 
 
 def test_box_standing_on_a_floor_leaks_no_light_under_it():

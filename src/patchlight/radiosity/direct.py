@@ -58,38 +58,48 @@ def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
 
 
 def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samples: int) -> np.ndarray:
-    """(N, 3) incident light from a directional light with ray-traced (soft) shadows."""
+    """(N, 3) incident light from a directional light with ray-traced (soft) shadows.
+    origins (N, K, 3): K points per texel; shadow ray j leaves from point j mod K."""
     dirs = _sun_directions(light, angle, samples)
+    k = origins.shape[1]
+    rays = max(len(dirs), k)
     visible_cos = np.zeros(len(origins))
-    for d in dirs:
+    for j in range(rays):
+        d = dirs[j % len(dirs)]
         cos = normals @ d
         lit = np.flatnonzero(cos > 0)
-        blocked = tracer.occluded(origins[lit], np.broadcast_to(d, (len(lit), 3)), np.float32(1e30))
+        blocked = tracer.occluded(origins[lit, j % k], np.broadcast_to(d, (len(lit), 3)), np.float32(1e30))
         visible_cos[lit] += np.where(blocked, 0.0, cos[lit])
-    return (visible_cos / len(dirs))[:, None] * light.radiometric[None] / np.pi
+    return (visible_cos / rays)[:, None] * light.radiometric[None] / np.pi
 
 
 def local_light(origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
-    """(N, 3) incident light from a point or spot light with ray-traced shadows."""
-    to_light = np.asarray(light.position, np.float64)[None] - origins
-    d = np.linalg.norm(to_light, axis=1)
-    l = to_light / np.maximum(d, 1e-9)[:, None]
-    strength = np.einsum("ij,ij->i", normals, l) * falloff_factor(d, light, falloff)
-    if light.kind == "spot":
-        strength *= spot_factor(-l, light)
-    lit = np.flatnonzero(strength > 0)
-    blocked = tracer.occluded(origins[lit], l[lit], (d[lit] * (1 - 1e-4)).astype(np.float32))
+    """(N, 3) incident light from a point or spot light with ray-traced shadows, averaged
+    over the K points per texel of origins (N, K, 3)."""
     value = np.zeros(len(origins))
-    value[lit] = np.where(blocked, 0.0, strength[lit])
-    return value[:, None] * light.radiometric[None] / np.pi
+    for k in range(origins.shape[1]):
+        o = origins[:, k]
+        to_light = np.asarray(light.position, np.float64)[None] - o
+        d = np.linalg.norm(to_light, axis=1)
+        l = to_light / np.maximum(d, 1e-9)[:, None]
+        strength = np.einsum("ij,ij->i", normals, l) * falloff_factor(d, light, falloff)
+        if light.kind == "spot":
+            strength *= spot_factor(-l, light)
+        lit = np.flatnonzero(strength > 0)
+        blocked = tracer.occluded(o[lit], l[lit], (d[lit] * (1 - 1e-4)).astype(np.float32))
+        value[lit] += np.where(blocked, 0.0, strength[lit])
+    return (value / origins.shape[1])[:, None] * light.radiometric[None] / np.pi
 
 
 def direct_light(origins: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
                  falloff: str = "inverse-square", sun_angle: float | None = None,
                  sun_samples: int = 16) -> np.ndarray:
-    """(N, 3) f32 incident light I from every light, at points `origins` (N, 3) already lifted
-    off their surfaces, with unit normals (N, 3). sun_angle (radians) overrides each sun's."""
+    """(N, 3) f32 incident light I from every light, at points `origins` (N, 3), or (N, K, 3)
+    for K points spread over each texel, already lifted off their surfaces, with unit normals
+    (N, 3). sun_angle (radians) overrides each sun's."""
     origins = np.asarray(origins, np.float64)
+    if origins.ndim == 2:
+        origins = origins[:, None, :]
     normals = np.asarray(normals, np.float64)
     total = np.zeros((len(origins), 3))
     for light in lights:
