@@ -661,3 +661,16 @@ def test_baked_glb_groups_interleaved_materials_and_needs_uv1_for_a_lightmap(tmp
     with pytest.raises(ValueError, match="uv1"):
         save_baked_glb(scene, tmp_path / "no_uv1.glb", encode_png(np.zeros((1, 1, 4), np.uint8)), {"rgbmRange": 1})
     assert not (tmp_path / "no_uv1.glb").exists()
+
+
+def test_camera_round_trips_as_a_perspective_camera_node(tmp_path):
+    from patchlight.scene import load_scene
+
+    room = load_scene("room")
+    save_baked_glb(room, tmp_path / "room.glb")
+    camera = load_gltf(tmp_path / "room.glb").extras["camera"]
+    eye, target = np.array(room.extras["camera"]["eye"]), np.array(room.extras["camera"]["target"])
+    np.testing.assert_allclose(camera["eye"], eye, atol=1e-6)
+    forward = np.array(camera["target"]) - np.array(camera["eye"])
+    np.testing.assert_allclose(forward, (target - eye) / np.linalg.norm(target - eye), atol=1e-6)
+    assert camera["fov"] == pytest.approx(75.0)

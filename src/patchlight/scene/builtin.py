@@ -59,7 +59,7 @@ class SceneBuilder:
                 facing[axis] = side * sign
                 self.quad(corners, material, facing)
 
-    def scene(self, name: str, lights=(), sky=None) -> Scene:
+    def scene(self, name: str, lights=(), sky=None, camera: dict | None = None) -> Scene:
         """The Scene of every quad added so far (flat normals, planar uv0 in metres)."""
         tris = np.stack(self.positions)  # (T, 3, 3)
         positions = tris.reshape(-1, 3)
@@ -69,7 +69,8 @@ class SceneBuilder:
         uv0 = _planar_uvs(positions, normals)
         return Scene(positions=positions, normals=normals, uv0=uv0, indices=indices,
                      material_ids=np.array(self.material_ids, np.int32), materials=self.materials,
-                     lights=list(lights), sky=sky, name=name, source=name)
+                     lights=list(lights), sky=sky, name=name, source=name,
+                     extras={"camera": camera} if camera else {})
 
 
 def _planar_uvs(positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -111,7 +112,7 @@ def room() -> Scene:
     sun = Light("directional", np.array([1.0, 0.95, 0.85], np.float32), 100.0,
                 direction=sun_dir / np.linalg.norm(sun_dir), angle=np.radians(0.53), name="sun")
     sky = Sky.gradient(zenith=(1.2, 1.9, 3.6), horizon=(2.6, 2.9, 3.2), ground=(0.5, 0.45, 0.4))
-    return b.scene("room", lights=[sun], sky=sky)
+    return b.scene("room", lights=[sun], sky=sky, camera={"eye": [7.6, 2.4, 5.6], "target": [2.0, 0.9, 0.3], "fov": 75.0})
 
 
 # Cornell box as measured, in millimetres (x, y, z); each quad listed with a point inside
@@ -153,7 +154,7 @@ def cornell() -> Scene:
             (x0, z0), (x1, z1) = xz[i], xz[(i + 1) % 4]
             side = np.array([[x0, 0, z0], [x1, 0, z1], [x1, top * mm, z1], [x0, top * mm, z0]])
             b.quad(side, white, side.mean(axis=0) - block_centre)
-    return b.scene("cornell")
+    return b.scene("cornell", camera={"eye": [0.278, 0.273, -0.8], "target": [0.278, 0.273, 0.0], "fov": 39.3})
 
 
 def builtin_scene(name: str) -> Scene:

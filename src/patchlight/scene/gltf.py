@@ -231,6 +231,9 @@ class _Importer:
         scene = self._assemble(blocks, materials)
         scene.lights = self._lights(instances)
         scene.sky = self._sky()
+        camera = self._camera(instances)
+        if camera is not None:
+            scene.extras["camera"] = camera
         scene.name, scene.source = self.path.stem, str(self.path)
         return scene
 
@@ -615,6 +618,24 @@ class _Importer:
                      inner_cone=inner, outer_cone=outer, falloff=falloff, angle=angle,
                      name=str(spec.get("name", "")))
 
+    def _camera(self, instances) -> dict | None:
+        """The first perspective camera node as {eye, target, fov (vertical, degrees)}: the
+        view `render` and `view` start from."""
+        for node_index, world in instances:
+            number = self.doc.nodes[node_index].camera
+            if number is None:
+                continue
+            camera = self.item(self.doc.cameras, number, f"node {node_index}: camera")
+            if camera.type != "perspective" or camera.perspective is None:
+                continue
+            forward = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
+            if not np.linalg.norm(forward) > 0:
+                continue
+            eye = world[:3, 3]
+            return {"eye": _floats(eye), "target": _floats(eye + forward / np.linalg.norm(forward)),
+                    "fov": math.degrees(float(camera.perspective.yfov))}
+        return None
+
     def _sky(self) -> Sky | None:
         holders = []
         if self.doc.scenes:
@@ -714,7 +735,7 @@ def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = N
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
     writer.doc.materials = [writer.material(m) for m in scene.materials]
-    nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights)
+    nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
     writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras=_sky_extras(scene.sky))]
     writer.doc.scene = 0
     if lightmap_rgbm_png_bytes is not None:
@@ -836,6 +857,17 @@ class _GlbWriter:
             self.doc.extensions["KHR_lights_punctual"] = {"lights": specs}
             self.use_extension("KHR_lights_punctual")
         return nodes
+
+    def camera(self, camera: dict | None) -> list[int]:
+        """A perspective camera node looking from camera["eye"] at camera["target"]."""
+        if not camera:
+            return []
+        eye = np.asarray(camera["eye"], np.float64)
+        self.doc.cameras.append(gl.Camera(type="perspective", perspective=gl.Perspective(
+            yfov=math.radians(float(camera.get("fov", 60.0))), znear=0.01)))
+        self.doc.nodes.append(gl.Node(name="camera", camera=len(self.doc.cameras) - 1, translation=_floats(eye),
+                                      rotation=_rotation_onto(np.asarray(camera["target"], np.float64) - eye)))
+        return [len(self.doc.nodes) - 1]
 
     def lightmap(self, png: bytes, meta: dict) -> None:
         """The RGBM lightmap as texture "patchlight_lightmap" and its description in the root extras."""
