@@ -48,12 +48,16 @@ def encode_dds(pixels: np.ndarray) -> tuple[bytes, str]:
 
 def decode_dds(path) -> np.ndarray:
     """(H, W, 4) uint8 texels of a BC1/BC3 DDS file (for checks and the CPU reference)."""
-    data = read_bytes(path)
+    return decode_dds_bytes(read_bytes(path), str(path))
+
+
+def decode_dds_bytes(data: bytes, where: str = "DDS data") -> np.ndarray:
+    """(H, W, 4) uint8 texels of BC1/BC3 DDS bytes, decoded by Pillow."""
     try:
         with Image.open(io.BytesIO(data)) as img:
             return np.asarray(img.convert("RGBA"))
     except (OSError, ValueError) as exc:
-        raise PatchlightError(f"{path}: not a readable DDS file ({exc})") from exc
+        raise PatchlightError(f"{where}: not a readable DDS file ({exc})") from exc
 
 
 def write_map_files(out_dir: Path, stem: str, pixels: np.ndarray) -> dict:

@@ -71,7 +71,9 @@ class GroundMap:
     """A baked ground map. encoded: the texels (encode.EncodedMap); area; sky_light (3,)
     the sky's incident light on an up-facing patch (radiance); sun: (direction (3,),
     I_sun on the ground (3,)) or None; shadowed: share of covered texels in shadow;
-    coverage: share of texels with a surface under them; seconds per stage; warnings."""
+    coverage: share of texels with a surface under them; seconds per stage; warnings; and
+    what any encoding is made from: excident B, unshadowed B_u (H, W, 3) with noise, shadow
+    amount s and covered (H, W); path: the scene's extras["path"] (K, 3) or None."""
 
     encoded: enc.EncodedMap
     area: GroundArea
@@ -80,8 +82,17 @@ class GroundMap:
     sun: tuple | None
     shadowed: float
     coverage: float
+    excident: np.ndarray
+    unshadowed: np.ndarray
+    shadow: np.ndarray
+    covered: np.ndarray
+    path: np.ndarray | None = None
     seconds: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+
+    def encode(self, encoding: str) -> enc.EncodedMap:
+        """The same map in another encoding."""
+        return enc.encode(encoding, self.excident, self.unshadowed, self.shadow, self.covered, self.sky_light)
 
 
 def _sky_light(solved: SolvedScene, excident: np.ndarray, covered: np.ndarray, warnings: list) -> np.ndarray:
@@ -147,7 +158,9 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     encoded = enc.encode(settings.shadows, excident, unshadowed, shadow, covered, sky_light)
     seconds["encode"] = time.perf_counter() - clock
     shadowed = float(np.mean(shadow[covered] < enc.UNSHADOWED))
+    path = scene.extras.get("path") if isinstance(scene.extras, dict) else None
     return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, coverage,
+                     excident, unshadowed, shadow, covered, None if path is None else np.asarray(path, np.float64),
                      seconds, warnings)
 
 
@@ -190,6 +203,7 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         "sun": None if ground_map.sun is None else {"direction": ground_map.sun[0], "on_ground": ground_map.sun[1]},
         "shadowed_fraction": ground_map.shadowed,
         "coverage": ground_map.coverage,
+        "path": ground_map.path,
         "seconds_per_stage": ground_map.seconds,
         "warnings": ground_map.warnings,
     }

@@ -169,4 +169,5 @@ def track() -> Scene:
     sky = Sky.gradient(zenith=(1.1, 1.8, 3.4), horizon=(2.4, 2.7, 3.0), ground=(0.35, 0.32, 0.28))
     scene = b.scene("track", lights=[sun], sky=sky)
     scene.extras["camera"] = {"eye": [-20.0, 14.0, 52.0], "target": [10.0, 0.0, 20.0], "fov": 50.0}
+    scene.extras["path"] = track_centerline(1.0) + np.array([0.0, ASPHALT_Y, 0.0])  # the viewer's cars drive it
     return scene

@@ -9,7 +9,8 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
     groups:    [{start, count, material}]  index ranges of data.bin's "indices", by material
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
-    lights, settings, camera, bounds, lightmap, env, pictures, max_lights
+    lights, settings, camera, bounds, lightmap, env, pictures, max_lights,
+    ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer)
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import json
 
 import numpy as np
 
+from ..ground.viewer import radiosity_bundle
 from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
@@ -89,6 +91,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "env": pack.add("env", env),
         "pictures": target.bake_pictures(),
         "max_lights": MAX_LIGHTS,
+        "ground_map": radiosity_bundle(pack, settings),
     }
     return manifest, b"".join(pack.parts)
 

@@ -4,6 +4,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { constantTexture, loadBundle } from './bundle.js';
+import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
 
 const KINDS = ['directional', 'point', 'spot'];        // light_common.glsl LIGHT_* ids
@@ -33,6 +34,7 @@ class Viewer {
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
     this.scene = new THREE.Scene();
     this.scene.add(new THREE.Mesh(bundle.geometry(), this.materials));
+    this.groundMap = new GroundMapDemo(this, vertexShader, fragmentShader);  // cars lit by a ground map
     const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
     this.radius = Math.max(lo.distanceTo(hi) / 2, 1e-3);
     this.camera = new THREE.PerspectiveCamera(45, 1, this.radius * 1e-3, this.radius * 100);
@@ -66,6 +68,7 @@ class Viewer {
       lightmap: { value: lightmap },
       exposure: { value: s.exposure },
       overlay_map: { value: constantTexture([0, 0, 0, 1]) },
+      ...radiosityUniforms(this.bundle, this.manifest.ground_map),
     };
   }
 
@@ -273,6 +276,7 @@ async function main() {
     $('stats').textContent = `${viewer.state.model}  ${ms.toFixed(1)} ms/frame  ${triangles} triangles`;
   };
   bindControls(viewer, redraw);
+  viewer.groundMap.bindControls(redraw);
   const fit = () => { viewer.setSize(canvas.clientWidth, canvas.clientHeight); redraw(); };
   if (!testing) {
     window.addEventListener('resize', fit);
@@ -293,6 +297,7 @@ async function main() {
       st.overlay = spec.overlay ?? '';
       if (spec.exposure !== undefined) st.exposure = spec.exposure;
       if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
+      viewer.groundMap.configure(spec.radiosity);
       st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
       viewer.apply();
       viewer.setSize(spec.width, spec.height);
