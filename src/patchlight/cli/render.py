@@ -64,13 +64,16 @@ def register(sub) -> None:
 
 
 def load_target_and_settings(args, model: str):
-    """The target the arguments name and its ShadingSettings (exposure left at 1)."""
+    """The target the arguments name and its ShadingSettings (exposure left at 1). A ground
+    map directory names its bake, with the map as the hemisphere-radiosity model's."""
+    from ..ground.viewer import view_target
     from ..render.settings import target_settings
     from ..render.target import load_target
     from ..scene.sky import Sky
     from ..shading.lights import parse_light_spec
 
-    target = load_target(args.target)
+    spec, ground_map = view_target(args.target)
+    target = load_target(spec)
     if args.sky is not None:
         target.scene.sky = Sky.uniform(args.sky)
     elif args.sky_gradient is not None:
@@ -80,7 +83,8 @@ def load_target_and_settings(args, model: str):
         raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
     settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
                                per_vertex=args.per_vertex, normal_map=args.normal_map,
-                               lightmap_specular=args.specular, reflectivity=args.reflectivity)
+                               lightmap_specular=args.specular, reflectivity=args.reflectivity,
+                               ground_map=ground_map)
     return target, settings
 
 
