@@ -12,6 +12,8 @@
 //   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) + sum I N.L
 //   lightmap     specular = sum I (N.H)^n only with LIGHTMAP_SPECULAR (the lightmap has the diffuse)
 //   envmap       diffuse as lambert; reflected = reflect(-V, N); fresnel = k (1 - N.V)
+//   ambient-cube diffuse = the light volume seen along N, specular = k x the volume along
+//                reflect(-V, N) (ambient_cube.glsl); no lights: the volume holds them
 // Specular terms are limited by the gloss (colour alpha under normal mapping, else 1).
 
 struct Lighting {
@@ -46,10 +48,13 @@ Lighting light_surface(vec3 P, vec3 N, vec3 V, float gloss, float shininess, flo
     Lighting lit = Lighting(vec3(0.0), vec3(0.0), reflect_view(N, V), fresnel_term(N, V, reflectivity));
 #if MODEL == MODEL_HEMISPHERE
     lit.diffuse = hemisphere_light(N, sky_color, ground_color);
+#elif MODEL == MODEL_AMBIENT_CUBE
+    lit.diffuse = ambient_cube_light(P, N);
+    lit.specular = reflectivity * ambient_cube_light(P, lit.reflected);
 #elif MODEL != MODEL_UNLIT && MODEL != MODEL_LIGHTMAP
     lit.diffuse = ambient_color;
 #endif
-#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT
+#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= light_count) break;
         add_light(lit, incident_light(i, P), N, V, gloss, shininess);

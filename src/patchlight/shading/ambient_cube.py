@@ -72,3 +72,24 @@ def ambient_cube_light(volume, P: np.ndarray, N: np.ndarray, naive: bool = False
     for axis in range(6):
         light += weights[:, axis:axis + 1] * ambient_cube_axis(volume, axis, i0, i1, f)
     return light
+
+
+def sky_volume(sky, ground, ambient):
+    """The model's volume when none was baked: one probe whose +Y axis receives `sky`, -Y
+    `ground` and the four sides `ambient` ((3,) incident light each, as the hemisphere and
+    ambient models use them), so ambient-cube then lights like a hemisphere light."""
+    from ..volumes.grid import ProbeGrid
+    from ..volumes.volume import LightVolume
+
+    cube = np.empty((6, 1, 1, 1, 3), np.float32)
+    cube[:] = np.asarray(ambient, np.float32)
+    cube[1], cube[4] = np.asarray(sky, np.float32), np.asarray(ground, np.float32)
+    return LightVolume(ProbeGrid((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1, 1, 1)), cube, np.zeros((1, 1, 1), bool))
+
+
+def volume_texture(volume) -> np.ndarray:
+    """(6 NZ, NY, NX, 4) float32 RGBA texels of the 3D texture ambient_cube.glsl reads (alpha 1)."""
+    _, nz, ny, nx, _ = volume.cube.shape
+    rgba = np.ones((6 * nz, ny, nx, 4), np.float32)
+    rgba[..., :3] = volume.cube.reshape(6 * nz, ny, nx, 3)
+    return rgba

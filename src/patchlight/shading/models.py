@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PatchlightError
+from .ambient_cube import ambient_cube_light, sky_volume
 from .hemisphere_radiosity import (GroundMapInputs, apply_fog, check_ambient, fog_factor, hemisphere_radiosity,
                                    hemisphere_radiosity_color, neutral_ground_map)
 from .lights import PunctualLight, incident_light
@@ -23,7 +24,7 @@ DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim,
 
 # Index = the GLSL MODEL_* number (common.glsl).
 MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap",
-          "hemisphere-radiosity")
+          "hemisphere-radiosity", "ambient-cube")
 LIT_MODELS = MODELS[1:]
 
 
@@ -38,7 +39,9 @@ class ShadingSettings:
     lights' Blinn-Phong highlight to the lightmap model. exposure: k of the display curve
     1 - exp(-k x) for PNGs and the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
     material's, or None to keep theirs. ground_map: the hemisphere-radiosity model's baked
-    ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`)."""
+    ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`). volume: the
+    ambient-cube model's light volume (patchlight.volumes.LightVolume), or None for the sky as
+    one probe (`cube_volume`); ambient_cube_naive: weight its axes by saturate(N), not N^2."""
 
     model: str = "lambert"
     lights: list[PunctualLight] = field(default_factory=list)
@@ -51,6 +54,12 @@ class ShadingSettings:
     exposure: float = 1.0
     reflectivity: float | None = None
     ground_map: GroundMapInputs | None = None
+    volume: object | None = None
+    ambient_cube_naive: bool = False
+
+    def cube_volume(self):
+        """The ambient-cube model's volume: the baked one, else one probe of sky, ground and ambient."""
+        return self.volume if self.volume is not None else sky_volume(self.sky, self.ground, self.ambient)
 
     def radiosity_inputs(self) -> GroundMapInputs:
         """The hemisphere-radiosity model's map: the baked one, else one texel of `ground`."""
@@ -173,9 +182,13 @@ def light_surface(settings: ShadingSettings, P: np.ndarray, N: np.ndarray, V: np
     model = settings.model
     if model == "hemisphere":
         lit.diffuse[:] = hemisphere_light(N, settings.sky, settings.ground)
+    elif model == "ambient-cube":
+        volume, naive = settings.cube_volume(), settings.ambient_cube_naive
+        lit.diffuse[:] = ambient_cube_light(volume, P, N, naive)
+        lit.specular[:] = np.reshape(reflectivity, (-1, 1)) * ambient_cube_light(volume, P, lit.reflected, naive)
     elif model not in ("unlit", "lightmap"):
         lit.diffuse[:] = settings.ambient
-    if model not in ("unlit", "ambient"):
+    if model not in ("unlit", "ambient", "ambient-cube"):
         for light in settings.lights:
             L, I = incident_light(light, P)
             add_light(model, lit, L, I, N, V, gloss, shininess, settings.lightmap_specular)

@@ -10,7 +10,8 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
     lights, settings, camera, bounds, lightmap, env, pictures, max_lights,
-    ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer)
+    ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer),
+    volume (the ambient-cube model's light volume: patchlight.volumes.viewer)
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
 from ..shading.models import ShadingSettings
+from ..volumes.viewer import volume_bundle
 
 
 class _Packer:
@@ -84,7 +86,8 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "settings": {"model": settings.model, "ambient": _floats(settings.ambient), "sky": _floats(settings.sky),
                      "ground": _floats(settings.ground), "per_vertex": settings.per_vertex,
                      "normal_map": settings.normal_map, "lightmap_specular": settings.lightmap_specular,
-                     "reflectivity": settings.reflectivity, "exposure": float(exposure)},
+                     "reflectivity": settings.reflectivity, "exposure": float(exposure),
+                     "ambient_cube_naive": settings.ambient_cube_naive},
         "camera": camera.to_json(),
         "bounds": [_floats(lo), _floats(hi)],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
@@ -92,6 +95,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "pictures": target.bake_pictures(),
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),
+        "volume": volume_bundle(pack, settings),
     }
     return manifest, b"".join(pack.parts)
 

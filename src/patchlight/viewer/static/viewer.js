@@ -4,6 +4,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { constantTexture, loadBundle } from './bundle.js';
+import { installVolume, volumeUniforms } from './ambient_cube.js';
 import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
 
@@ -17,13 +18,14 @@ class Viewer {
     const [bundle, vertexShader, fragmentShader, models] = await Promise.all([
       loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'), chunks.models()]);
     this.bundle = bundle;
+    this.shaders = { vertexShader, fragmentShader };
     this.manifest = bundle.manifest;
     this.models = models;
     this.maxLights = this.manifest.max_lights;
     const s = this.manifest.settings;
     this.state = {
       model: s.model, perVertex: s.per_vertex, normalMap: s.normal_map, lightmapSpecular: s.lightmap_specular,
-      exposure: s.exposure, reflectivity: s.reflectivity, overlay: '',
+      exposure: s.exposure, reflectivity: s.reflectivity, overlay: '', ambientCubeNaive: s.ambient_cube_naive,
       lights: this.manifest.lights.map((l) => ({ ...l })),
     };
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
@@ -69,6 +71,7 @@ class Viewer {
       exposure: { value: s.exposure },
       overlay_map: { value: constantTexture([0, 0, 0, 1]) },
       ...radiosityUniforms(this.bundle, this.manifest.ground_map),
+      ...volumeUniforms(this.bundle),
     };
   }
 
@@ -100,6 +103,7 @@ class Viewer {
     if (st.perVertex) defines.PER_VERTEX = '';
     if (st.normalMap && !st.perVertex) defines.NORMAL_MAP = '';
     if (st.lightmapSpecular) defines.LIGHTMAP_SPECULAR = '';
+    if (st.ambientCubeNaive) defines.AMBIENT_CUBE_NAIVE = '';
     if (st.overlay) defines.OVERLAY = '';
     const key = JSON.stringify(defines);
     for (const material of this.materials) {
@@ -125,6 +129,7 @@ class Viewer {
       u.light_cos_inner.value[i] = l.cos_inner;
       u.light_cos_outer.value[i] = l.cos_outer;
     });
+    this.onApply?.();
   }
 
   picture(name) {
@@ -277,6 +282,7 @@ async function main() {
   };
   bindControls(viewer, redraw);
   viewer.groundMap.bindControls(redraw);
+  const volume = installVolume(viewer, redraw, testing);
   const fit = () => { viewer.setSize(canvas.clientWidth, canvas.clientHeight); redraw(); };
   if (!testing) {
     window.addEventListener('resize', fit);
@@ -285,6 +291,7 @@ async function main() {
   }
   window.patchlight = {
     viewer,
+    volume,
     models: viewer.models,
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
     // reflectivity, overlay, camera {eye, target, fov}, width, height); RGBA bytes, base64.
@@ -298,6 +305,7 @@ async function main() {
       if (spec.exposure !== undefined) st.exposure = spec.exposure;
       if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
       viewer.groundMap.configure(spec.radiosity);
+      st.ambientCubeNaive = Boolean(spec.ambient_cube_naive);
       st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
       viewer.apply();
       viewer.setSize(spec.width, spec.height);

@@ -1,0 +1,33 @@
+"""The light volume as the viewer and the renderer's command line take it."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..shading.ambient_cube import volume_texture
+from .io import HEADER, read_volume
+from .volume import LightVolume
+
+
+def volume_bundle(pack, settings) -> dict:
+    """The manifest's "volume" entry (viewer/bundle.py) for ShadingSettings `settings`: grid
+    origin, spacing, dims; `texture`, the name of its (6 NZ, NY, NX, 4) texels in data.bin
+    (see ambient_cube.glsl); `inside`, the name of its (NZ, NY, NX) 0/1 flags; `baked`: False
+    when the model falls back to the sky as one probe (then the page adds no moving objects)."""
+    volume: LightVolume = settings.cube_volume()
+    grid = volume.grid
+    return {"origin": list(grid.origin), "spacing": list(grid.spacing), "dims": list(grid.dims),
+            "texture": pack.add("ambient_cube_volume", volume_texture(volume)),
+            "inside": pack.add("ambient_cube_inside", volume.inside.astype(np.float32)),
+            "baked": settings.volume is not None}
+
+
+def find_volume(path, bake_dir: Path | None) -> LightVolume | None:
+    """The volume at `path` (a directory or its header), else the one a bake directory holds
+    (written there by `patchlight volume BAKE -o BAKE`), else None."""
+    if path is not None:
+        return read_volume(path)
+    if bake_dir is not None and (Path(bake_dir) / HEADER).is_file():
+        return read_volume(bake_dir)
+    return None
