@@ -44,6 +44,9 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
     p.add_argument("--normal-map", action="store_true", help="tangent-space normal maps, colour alpha as gloss")
     p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
+    p.add_argument("--volume", type=Path, metavar="DIR",
+                   help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
+    p.add_argument("--naive-weights", action="store_true", help="ambient-cube model: weight the axes by saturate(N)")
 
 
 def register(sub) -> None:
@@ -71,6 +74,7 @@ def load_target_and_settings(args, model: str):
     from ..render.target import load_target
     from ..scene.sky import Sky
     from ..shading.lights import parse_light_spec
+    from ..volumes.viewer import find_volume
 
     spec, ground_map = view_target(args.target)
     target = load_target(spec)
@@ -84,7 +88,8 @@ def load_target_and_settings(args, model: str):
     settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
                                per_vertex=args.per_vertex, normal_map=args.normal_map,
                                lightmap_specular=args.specular, reflectivity=args.reflectivity,
-                               ground_map=ground_map)
+                               ground_map=ground_map, volume=find_volume(args.volume, target.bake_dir),
+                               ambient_cube_naive=args.naive_weights)
     return target, settings
 
 
