@@ -20,7 +20,7 @@ def _basis(n):
     return t, s
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def make_rays(position, normal, offset, rows, local_dirs, angles):
     """Origins and directions (len(rows) * D, 3) f32 for the patches `rows`.
 
@@ -48,7 +48,7 @@ def make_rays(position, normal, offset, rows, local_dirs, angles):
     return origins, dirs
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def resolve_hits(tri, u, v, front, tri_uv1, width, height, index):
     """The item buffer: the patch each ray sees, or SKY / BACK_FACE / LOST. (R,) i32.
 
@@ -111,7 +111,7 @@ def interpolate_in_order(G, status, targets, neighbours, computed, interpolated,
 
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def item_buffer_rows(seen, weights, sky_radiance, n_patches):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 

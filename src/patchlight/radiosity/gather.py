@@ -18,7 +18,7 @@ from ..rays.tracer import Tracer
 from . import _kernels
 from .hemicube import multiplier_map, stratified_directions
 
-RAYS_PER_CHUNK = 1 << 20
+RAYS_PER_CHUNK = 1 << 16  # one task: ray generation, trace and item buffer on one core
 
 
 @dataclass
@@ -72,7 +72,7 @@ class Gatherer:
         if self.cluster is not None:
             parts = self.cluster.gather(self, chunks, progress)
         else:
-            parts = [self.gather_chunk(chunk, progress) for chunk in chunks]
+            parts = self.tracer.map(lambda chunk: self.gather_chunk(chunk, progress), chunks)
         if not parts:
             return GatherRows(sp.csr_matrix((0, len(self.patches)), dtype=np.float32),
                               np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
@@ -86,7 +86,7 @@ class Gatherer:
         p, d = self.patches, self.rays_per_patch
         origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
                                            self.dirs, self._angles(rows))
-        hits = self.tracer.intersect(origins, dirs)
+        hits = self.tracer.intersect_chunk(origins, dirs)
         seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
                                      p.width, p.height, p.index)
         sky = seen == _kernels.SKY

@@ -63,31 +63,37 @@ class Tracer:
             self._pool = ThreadPoolExecutor(_threads())
         return self._scene
 
+    def map(self, fn, items: list) -> list:
+        """fn over items on the tracer's thread pool (one thread per core), results in order.
+        For pipelines whose every stage releases the GIL: numba nogil kernels, Embree calls."""
+        self._ready()
+        if len(items) <= 1 or _threads() == 1:
+            return [fn(item) for item in items]
+        return list(self._pool.map(fn, items))
+
     def _map(self, fn, n: int, *arrays):
         """Run fn over chunks of the row-aligned arrays; return the list of chunk results."""
-        self.rays_traced += n
-        self._ready()
-        starts = range(0, n, CHUNK)
-        if n <= CHUNK or _threads() == 1:
-            return [fn(*(a[s:s + CHUNK] for a in arrays)) for s in starts]
-        return list(self._pool.map(lambda s: fn(*(a[s:s + CHUNK] for a in arrays)), starts))
+        starts = list(range(0, n, CHUNK))
+        return self.map(lambda s: fn(*(a[s:s + CHUNK] for a in arrays)), starts)
+
+    def intersect_chunk(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
+        """Closest hit of each ray, traced on the calling thread (see `intersect`)."""
+        o = np.ascontiguousarray(origins, np.float32)
+        d = np.ascontiguousarray(directions, np.float32)
+        self.rays_traced += len(o)
+        r = self._ready().run(o, d, output=1)
+        tri = r["primID"].astype(np.int32, copy=False)
+        front = (np.einsum("ij,ij->i", r["Ng"], d) < 0) & (tri >= 0)
+        return Hits(tri, r["u"], r["v"], r["tfar"], front)
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """Closest hit of each ray. origins, directions: (N, 3); directions unit length."""
-        o = np.ascontiguousarray(origins, np.float32)
-        d = np.ascontiguousarray(directions, np.float32)
-
-        def run(oc, dc):
-            r = self._scene.run(oc, dc, output=1)
-            return r["primID"], r["u"], r["v"], r["tfar"], r["Ng"]
-
-        parts = self._map(run, len(o), o, d)
+        parts = self._map(self.intersect_chunk, len(origins), origins, directions)
         if not parts:
             empty = np.zeros(0, np.float32)
             return Hits(np.zeros(0, np.int32), empty, empty, empty, np.zeros(0, bool))
-        tri, u, v, t, ng = (np.concatenate(x) for x in zip(*parts))
-        front = np.einsum("ij,ij->i", ng, d) < 0
-        return Hits(tri.astype(np.int32), u, v, t, front & (tri >= 0))
+        return Hits(*(np.concatenate(x) for x in zip(*(
+            (h.tri, h.u, h.v, h.t, h.front) for h in parts))))
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
         """(N,) bool: True where something lies along the ray before distance tmax."""
@@ -96,6 +102,7 @@ class Tracer:
         far = np.ascontiguousarray(np.broadcast_to(np.asarray(tmax, np.float32), (len(o),)))
 
         def run(oc, dc, fc):
+            self.rays_traced += len(oc)
             return self._scene.run(oc, dc, dists=fc.copy(), query="OCCLUDED") >= 0
 
         parts = self._map(run, len(o), o, d, far)
