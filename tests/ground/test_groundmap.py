@@ -1,0 +1,223 @@
+"""The ground map bake: preprocessing, orientation, shadows, the three encodings, files and
+bad input, on small scenes whose light is known (ground_scenes.py)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from ground_scenes import GREY, I0, SKY, SUN_ES, fence, ground, patches, pole, solved, sun
+
+from patchlight.errors import PatchlightError
+from patchlight.ground.encode import rgb_to_hsv
+from patchlight.ground.files import decode_dds, load_ground_map, read_map_pixels
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
+from patchlight.ground.mapping import GroundArea, map_uv
+from patchlight.scene.builtin import SceneBuilder
+from patchlight.shading.environment import sky_incident
+from patchlight.shading.hemisphere_radiosity import radiosity_ground, radiosity_sky
+from patchlight.scene.sky import Sky
+
+AREA = GroundArea(-10.0, -10.0, 10.0, 10.0)
+SIZE = 100  # 0.2 m texels: texel k's centre is at -9.9 + 0.2 k
+
+
+def texel_of(x: float, z: float) -> tuple[int, int]:
+    """(row, column) of the texel holding world point (x, z)."""
+    u, v = map_uv(AREA, np.array([[x, 0.0, z]]))[0]
+    return int(v * SIZE), int(u * SIZE)
+
+
+def bake(b: SceneBuilder, lights=(), **options):
+    options = {"size": SIZE, "area": AREA, "noise": 0.0, **options}
+    settings = GroundMapSettings(**options)
+    return make_groundmap(solved(b, lights), settings)
+
+
+def level(with_sun=True):
+    b = SceneBuilder()
+    ground(b)
+    pole(b)
+    fence(b)
+    return b, [sun()] if with_sun else []
+
+
+# ------------------------------------------------------------------ preprocessing
+
+def test_a_tall_pole_does_not_paint_the_ground_but_a_fence_does():
+    b, _ = level(with_sun=False)
+    gm = bake(b, shadows="alpha")
+    B = gm.excident
+    red = (B[..., 0] > 2 * B[..., 2]) & (B[..., 0] > 2 * B[..., 1])
+    assert not red.any()
+    assert np.allclose(B[texel_of(0.0, 0.0)], np.array(GREY) * I0, atol=1e-5)
+    blue = B[..., 2] > 2 * B[..., 0]
+    rows, cols = np.nonzero(blue)
+    # the fence (x 2..6 at z = 5, 1 m tall, facing +z) lies turned up behind its foot: z 4..5
+    x = AREA.x0 + (cols + 0.5) * 0.2
+    z = AREA.z0 + (rows + 0.5) * 0.2
+    assert x.min() > 2.0 and x.max() < 6.0 and z.min() > 4.0 and z.max() < 5.0
+    assert abs(blue.sum() - 4.0 * 1.0 / 0.2**2) <= 0.15 * 100
+    assert np.allclose(B[blue], np.array([0.0, 0.0, 0.8]) * I0, atol=1e-5)
+
+
+def test_max_height_decides_what_is_left_out():
+    b = SceneBuilder()
+    ground(b)
+    pole(b, height=2.0)
+    B = bake(b, max_height=3.0).excident
+    assert B[texel_of(0.0, 0.0)][0] > 2 * B[texel_of(0.0, 0.0)][1]  # a 2 m post is kept: its top shows
+    b = SceneBuilder()
+    ground(b)
+    pole(b, height=2.0)
+    B = bake(b, max_height=1.5).excident
+    assert np.allclose(B[texel_of(0.0, 0.0)], np.array(GREY) * I0, atol=1e-5)
+
+
+def test_map_rows_follow_z_and_columns_follow_x():
+    b = SceneBuilder()
+    ground(b)
+    m = b.material("marker", (0.0, 0.9, 0.0))
+    b.quad([(5, 0.01, -6), (7, 0.01, -6), (7, 0.01, -4), (5, 0.01, -4)], m, (0, 1, 0))
+    B = bake(b).excident
+    rows, cols = np.nonzero(B[..., 1] > 2 * B[..., 0])
+    assert rows.max() < SIZE / 2 < cols.min()       # +x right, -z at the top (row 0 = v 0)
+    assert (rows.min(), cols.min()) == texel_of(5.1, -5.9)
+
+
+# ------------------------------------------------------------------ shadows
+
+def test_shadow_amount_is_the_light_left_in_shadow():
+    b, lights = level()
+    gm = bake(b, lights, shadows="separate")
+    s = gm.encoded.shadow
+    i_sun = SUN_ES * np.sqrt(0.5) / np.pi                # the sun on a horizontal patch
+    assert s[texel_of(5.0, 0.0)] == pytest.approx(I0 / (I0 + i_sun), rel=1e-4)   # the pole's shadow, +x
+    for x, z in ((-5.0, 0.0), (5.0, 3.0), (-3.0, -7.0)):
+        assert s[texel_of(x, z)] == 1.0
+    # the pole is left out of the picture but still casts its shadow, 10 m long
+    assert s[texel_of(9.5, 0.0)] < 1.0 and s[texel_of(-0.5, 0.0)] == 1.0
+
+
+def test_separate_and_alpha_give_back_the_picture():
+    """ground = colour x shadow is the shadowed picture B again (to 8-bit precision)."""
+    b, lights = level()
+    for encoding in ("separate", "alpha"):
+        gm = bake(b, lights, shadows=encoding)
+        e = gm.encoded
+        shadow = e.shadow if encoding == "separate" else e.color[..., 3]
+        ground_term = radiosity_ground(e, e.color if e.color.shape[-1] == 4 else _rgba(e.color), shadow)
+        assert np.allclose(ground_term * e.map_scale, gm.excident, atol=1e-4)
+        sky = radiosity_sky(e, _rgba(e.color), shadow)
+        lit = shadow == 1.0
+        assert np.allclose(sky[lit] * e.map_scale, gm.sky_light, rtol=1e-5)
+
+
+def _rgba(color):
+    return color if color.shape[-1] == 4 else np.concatenate([color, np.ones(color.shape[:2] + (1,), np.float32)], -1)
+
+
+# ------------------------------------------------------------------ hsv
+
+def hsv_level():
+    b = SceneBuilder()
+    ground(b)
+    patches(b, [(0.7, 0.1, 0.1), (0.1, 0.6, 0.2), (0.2, 0.3, 0.8), (0.6, 0.6, 0.1)])
+    pole(b, x=-7.0, z=-1.0)
+    pole(b, x=1.0, z=1.0)
+    return b, [sun()]
+
+
+def test_hsv_unshadowed_share_one_value_shadowed_are_darker_hue_and_saturation_kept(tmp_path):
+    b, lights = hsv_level()
+    gm = bake(b, lights, shadows="hsv", noise=0.1)
+    e = gm.encoded
+    hsv = rgb_to_hsv(e.color)
+    original = rgb_to_hsv(gm.excident)
+    sunny = gm.shadow == 1.0
+    assert 0.01 < 1 - sunny.mean() < 0.5
+    assert np.allclose(hsv[..., 2][sunny], 1.0)
+    assert np.allclose(hsv[..., 2][~sunny], gm.shadow[~sunny], atol=1e-6)
+    assert np.all(hsv[..., 2][~sunny] < 1.0)
+    coloured = original[..., 1] > 0.05
+    hue_gap = np.abs(hsv[..., 0] - original[..., 0])
+    assert np.all(np.minimum(hue_gap, 1 - hue_gap)[coloured] < 1 / 255)
+    assert np.all(np.abs(hsv[..., 1] - original[..., 1])[coloured] < 1 / 255)
+    # stored as 8 bits: every unshadowed texel has V = 255
+    write_groundmap(gm, tmp_path, "test", None)
+    png = np.round(read_map_pixels(tmp_path, "groundmap.png") * 255).astype(int)
+    assert np.all(png[sunny].max(axis=-1) == 255)
+    assert np.all(png[~sunny].max(axis=-1) < 255)
+
+
+def test_hsv_sky_term_in_shadow_is_darker_by_the_ground_ratio():
+    b, lights = hsv_level()
+    gm = bake(b, lights, shadows="hsv")
+    e = gm.encoded
+    texels = _rgba(e.color)
+    ones = np.ones(texels.shape[:2], np.float32)
+    ground_term = radiosity_ground(e, texels, ones)
+    sky_term = radiosity_sky(e, texels, ones)
+    lit, dark = texel_of(-5.0, 1.5), texel_of(-5.0, -1.0)   # the red patch, in the sun and in a pole's shadow
+    assert gm.shadow[lit] == 1.0 and gm.shadow[dark] < 0.5
+    ratio = gm.shadow[dark]
+    assert np.allclose(ground_term[dark], ground_term[lit] * ratio, rtol=1e-5)
+    assert np.allclose(sky_term[dark], sky_term[lit] * ratio, rtol=1e-5)
+    # over unshadowed ground the sky term averages to the sky's light
+    sunny = gm.shadow == 1.0
+    assert np.allclose(sky_term[sunny].mean(axis=0) * e.map_scale, gm.sky_light, rtol=1e-3)
+    assert np.allclose(gm.sky_light, sky_incident(Sky.uniform(SKY))[0], rtol=1e-4)
+
+
+# ------------------------------------------------------------------ noise
+
+def test_noise_is_seeded_and_bounded():
+    b, lights = level()
+    maps = [bake(b, lights, noise=0.1, seed=s).excident for s in (1, 1, 2)]
+    plain = bake(b, lights, noise=0.0).excident
+    assert np.array_equal(maps[0], maps[1]) and not np.array_equal(maps[0], maps[2])
+    ratio = maps[0] / np.where(plain > 0, plain, 1)
+    assert ratio[plain > 0].min() >= 0.9 - 1e-6 and ratio[plain > 0].max() <= 1.1 + 1e-6
+    assert ratio[plain > 0].std() > 0.03
+
+
+# ------------------------------------------------------------------ files
+
+@pytest.mark.parametrize("encoding, block", [("hsv", "BC1"), ("alpha", "BC3"), ("separate", "BC1")])
+def test_files_and_manifest(tmp_path, encoding, block):
+    b, lights = level()
+    gm = bake(b, lights, shadows=encoding, size=64)
+    manifest = write_groundmap(gm, tmp_path, "test", "../bake")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["groundmap.json", "groundmap.png", "groundmap.dds"] + (["shadow.png", "shadow.dds"] if encoding == "separate" else []))
+    on_disk = json.loads((tmp_path / "groundmap.json").read_text())
+    assert on_disk["encoding"] == encoding and on_disk["files"]["color"]["dds_format"] == block
+    assert on_disk["mapping"]["U"] == pytest.approx([1 / 20, 0, 0, 0.5]) and on_disk["area"] == [-10, -10, 10, 10]
+    assert on_disk["bake"] == "../bake" and "side" in on_disk["side_vector"] and len(on_disk["sky_scale"]) == 3
+    dds = (tmp_path / "groundmap.dds").read_bytes()
+    assert dds[:4] == b"DDS " and len(dds) - 128 == 64 * 64 * (8 if block == "BC3" else 4) // 8
+    png = read_map_pixels(tmp_path, "groundmap.png")
+    texels = decode_dds(tmp_path / "groundmap.dds")[..., :png.shape[-1]] / 255.0
+    assert np.abs(texels - png).mean() < 4 / 255               # block compression stays close
+    inputs = load_ground_map(tmp_path)
+    assert inputs.encoding == encoding and inputs.map_scale == pytest.approx(manifest["map_scale"])
+    assert np.array_equal(inputs.texture[..., :png.shape[-1]], png)
+
+
+# ------------------------------------------------------------------ bad input
+
+def test_bad_input_says_what_and_where():
+    b, lights = level()
+    with pytest.raises(PatchlightError, match="no ground under the area"):
+        make_groundmap(solved(b, lights), GroundMapSettings(size=16, area=GroundArea(100, 100, 120, 120)))
+    with pytest.raises(PatchlightError, match="--size 20000"):
+        make_groundmap(solved(b, lights), GroundMapSettings(size=20000))
+    with pytest.raises(PatchlightError, match="--max-height"):
+        make_groundmap(solved(b, lights), GroundMapSettings(size=16, max_height=0))
+
+
+def test_no_sun_turns_shadows_off_with_one_warning():
+    b, _ = level(with_sun=False)
+    gm = bake(b, shadows="hsv")
+    assert len(gm.warnings) == 1 and "no sun" in gm.warnings[0]
+    assert np.all(gm.shadow == 1.0) and gm.sun is None
