@@ -1,0 +1,59 @@
+"""`patchlight groundmap` end to end: a scene baked on the spot, a bake directory, bad input."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from patchlight.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def baked(tmp_path_factory):
+    """`patchlight groundmap cornell` baked on the spot into one directory (a sky, no sun: one warning)."""
+    out = tmp_path_factory.mktemp("cornell")
+    status = main(["groundmap", "cornell", "-o", str(out), "--size", "32", "--quiet", "--texels-per-unit", "8",
+                   "--shadows", "alpha", "--sky", "0.5,0.6,0.9"])
+    return status, out
+
+
+def test_a_scene_is_baked_into_the_output_which_is_then_a_bake_too(baked, capsys):
+    status, out = baked
+    assert status == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"groundmap.png", "groundmap.dds", "groundmap.json", "scene.glb", "lightmap.exr"} <= names
+    assert not [n for n in names if n.startswith(".")]               # no temporary files left
+    manifest = json.loads((out / "groundmap.json").read_text())
+    assert manifest["bake"] == "." and manifest["encoding"] == "alpha" and manifest["size"] == 32
+    assert manifest["sun"] is None and len(manifest["warnings"]) == 1 and "no sun" in manifest["warnings"][0]
+
+
+def test_a_bake_directory_is_read_and_named_relative_to_the_output(baked, tmp_path, capsys):
+    _, bake_dir = baked
+    out = tmp_path / "map"
+    assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--shadows", "hsv"]) == 0
+    captured = capsys.readouterr()
+    assert "ground map 16 x 16 (hsv)" in captured.out
+    assert captured.err.count("warning") == 1 and "no sun" in captured.err
+    manifest = json.loads((out / "groundmap.json").read_text())
+    assert (out / manifest["bake"]).resolve() == bake_dir.resolve()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--size", "20000"], "--size 20000"),
+    (["--area", "1,2,3"], "--area 1,2,3"),
+    (["--area", "5,5,1,1"], "X1 > X0"),
+    (["--area", "100,100,110,110"], "no ground under the area"),
+    (["--noise", "2"], "--noise 2"),
+])
+def test_bad_input_is_one_line_and_exit_2(baked, tmp_path, capsys, args, message):
+    _, bake_dir = baked
+    assert main(["groundmap", str(bake_dir), "-o", str(tmp_path / "out"), "--size", "16", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "out" / "groundmap.json").exists()
+
+
+def test_a_directory_that_is_not_a_bake(tmp_path, capsys):
+    assert main(["groundmap", str(tmp_path), "-o", str(tmp_path / "out")]) == 2
+    assert "not a bake" in capsys.readouterr().err
