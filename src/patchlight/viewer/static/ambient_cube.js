@@ -201,6 +201,11 @@ export function installVolume(viewer, redraw, testing) {
     setTime: (t) => show?.setTime(t),
     showObjects: (visible) => { if (show) show.group.visible = visible; },
     showProbes: (visible) => { if (show) show.probes.visible = visible; },
-    objectPositions: () => (show ? { sphere: show.sphere.position.toArray(), box: show.box.position.toArray() } : null),
+    // Where the objects are: sphere centre and radius, box centre, size and turn about +Y.
+    objects: () => (show ? {
+      sphere: { center: show.sphere.position.toArray(), radius: show.sphere.geometry.parameters.radius },
+      box: { center: show.box.position.toArray(), rotation: show.box.rotation.y,
+        size: ['width', 'height', 'depth'].map((k) => show.box.geometry.parameters[k]) },
+    } : null),
   };
 }
