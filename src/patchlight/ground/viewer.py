@@ -72,8 +72,8 @@ def open_ground_map_dir(directory) -> tuple[str, ViewerGroundMap]:
     for encoding in ENCODINGS:
         encoded = ground_map.encode(encoding)
         for source in ("png", "dds"):
-            texels = _stored(encoded.color, source)
-            shadow = None if encoded.shadow is None else _stored(np.repeat(encoded.shadow[..., None], 3, -1), source)
+            texels = stored_texels(encoded.color, source)
+            shadow = None if encoded.shadow is None else stored_texels(np.repeat(encoded.shadow[..., None], 3, -1), source)
             variants[f"{encoding}-{source}"] = (texels, shadow, encoded.map_scale, encoded.sky_scale)
     texels, shadow, scale, sky_scale = variants[f"{manifest['encoding']}-png"]
     area = settings.area
@@ -90,7 +90,7 @@ def open_ground_map_dir(directory) -> tuple[str, ViewerGroundMap]:
     return str(bake), inputs
 
 
-def _stored(color: np.ndarray, source: str) -> np.ndarray:
+def stored_texels(color: np.ndarray, source: str) -> np.ndarray:
     """(H, W, 4) uint8 texels as the PNG stores them, or as the DDS's blocks decode."""
     pixels = to_bytes(color)
     if source == "dds":

@@ -189,9 +189,14 @@ export class GroundMapDemo {
     u.radiosity_neutral.value = v.neutral;
   }
 
-  // Tests: set the uniforms as the CPU reference's GroundMapInputs.with_options(...) does.
+  // Tests: set the uniforms as the CPU reference's GroundMapInputs.with_options(...) does;
+  // variant "<encoding>-<png|dds>" picks one of the bundle's maps first.
   configure(options = {}) {
     const u = this.uniforms;
+    if (options.variant !== undefined) {
+      [this.state.encoding, this.state.map] = options.variant.split('-');
+      this.apply();
+    }
     if (options.offset_mode !== undefined) u.radiosity_offset_mode.value = this.g.offset_modes.indexOf(options.offset_mode);
     if (options.offset !== undefined) u.radiosity_offset.value = options.offset;
     if (options.side !== undefined) u.radiosity_side.value.set(...options.side);

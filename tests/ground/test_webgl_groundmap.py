@@ -1,0 +1,160 @@
+"""hemisphere-radiosity with a baked ground map: the viewer's GLSL in headless Chromium equals
+the CPU reference, for every encoding and offset mode, per vertex, with fog, and with the
+block-compressed texels: over the pixels both cover, mean |difference| < 1/255 and the 99th
+percentile < 4/255 (8-bit sRGB values of the same exposure), as for the other models."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "viewer"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "render"))
+
+from browser_support import DRIVER, browser_missing, node_env  # noqa: E402
+from ground_scenes import fence, ground, patches, pole, solved, sun  # noqa: E402
+from render_scenes import uv_sphere  # noqa: E402
+
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap  # noqa: E402
+from patchlight.ground.mapping import GroundArea  # noqa: E402
+from patchlight.ground.viewer import ViewerGroundMap, stored_texels  # noqa: E402
+from patchlight.imaging.exposure import auto_exposure  # noqa: E402
+from patchlight.render import Camera, Renderer, target_settings  # noqa: E402
+from patchlight.render.output import display_pixels  # noqa: E402
+from patchlight.render.target import Target  # noqa: E402
+from patchlight.scene.builtin import SceneBuilder  # noqa: E402
+from patchlight.scene.model import Material, Scene  # noqa: E402
+from patchlight.shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES  # noqa: E402
+from patchlight.viewer.app import make_server  # noqa: E402
+
+SIZE = 96
+CAMERA = {"eye": [-3.0, 3.5, 9.0], "target": [1.5, 0.8, 2.0], "fov": 50.0}
+SIDE = [0.6, 0.0, 0.8]
+FOG = {"fog_color": [2.0, 2.2, 2.6], "fog_range": [6.0, 16.0]}
+
+
+def level_with_sphere():
+    """(Target, ViewerGroundMap): a ground with coloured patches, a pole and a fence in the sun,
+    its 64 x 64 ground map in every encoding, and a smooth sphere above it."""
+    b = SceneBuilder()
+    ground(b)
+    patches(b, [(0.7, 0.1, 0.1), (0.1, 0.6, 0.2), (0.2, 0.3, 0.8), (0.6, 0.6, 0.1)])
+    pole(b, x=-1.0, z=3.0)
+    fence(b, x0=-1.0, x1=4.0, z=4.0)
+    level = solved(b, [sun((0.6, -1.0, -0.4))])
+    gm = make_groundmap(level, GroundMapSettings(size=64, area=GroundArea(-10, -10, 10, 10), noise=0.1))
+    variants = {}
+    for encoding in ENCODINGS:
+        e = gm.encode(encoding)
+        for source in ("png", "dds"):
+            shadow = None if e.shadow is None else stored_texels(np.repeat(e.shadow[..., None], 3, -1), source)
+            variants[f"{encoding}-{source}"] = (stored_texels(e.color, source), shadow, e.map_scale, e.sky_scale)
+    s = level.scene
+    positions, normals, uv, indices = uv_sphere(12, 24, 1.2, (1.0, 1.6, 2.5))
+    scene = Scene(positions=np.concatenate([s.positions, positions]), normals=np.concatenate([s.normals, normals]),
+                  uv0=np.concatenate([s.uv0, uv]), indices=np.concatenate([s.indices, indices + len(s.positions)]),
+                  material_ids=np.concatenate([s.material_ids, np.full(len(indices), len(s.materials), np.int32)]),
+                  materials=s.materials + [Material("chrome", np.array([0.8, 0.8, 0.8, 1], np.float32), reflectivity=0.5)],
+                  lights=s.lights, sky=s.sky, name="ground map test", source="ground map test")
+    texels, _, scale, sky_scale = variants["hsv-png"]
+    inputs = ViewerGroundMap(texture=texels / np.float32(255), U=gm.area.U, V=gm.area.V, encoding="hsv",
+                             map_scale=scale, sky_scale=sky_scale, variants=variants)
+    return Target.from_scene(scene), inputs
+
+
+def variant_inputs(inputs: ViewerGroundMap, case: dict):
+    """The CPU reference's GroundMapInputs for a case: the variant's texels and the options."""
+    encoding, _ = case["variant"].split("-")
+    texels, shadow, scale, sky_scale = inputs.variants[case["variant"]]
+    options = {k: (np.asarray(v, np.float32) if isinstance(v, list) and k != "fog_range" else v)
+               for k, v in case.items() if k in ("offset_mode", "offset", "side", "fog_color", "fog_range")}
+    chosen = inputs.with_options(texture=texels / np.float32(255), encoding=encoding, map_scale=scale,
+                                 sky_scale=sky_scale, **options)
+    if shadow is not None:
+        chosen.shadow = shadow / np.float32(255)
+    return chosen
+
+
+def case_list() -> list[dict]:
+    cases = [{"name": f"{e}-{m}", "variant": f"{e}-png", "offset_mode": m, "offset": 1.5, "side": SIDE}
+             for e in ENCODINGS for m in OFFSET_MODES]
+    cases.append({"name": "hsv-side-per_vertex", "variant": "hsv-png", "offset_mode": "side", "offset": 1.5,
+                  "side": SIDE, "per_vertex": True})
+    cases.append({"name": "alpha-normal-fog", "variant": "alpha-png", "offset_mode": "normal", "offset": 1.0,
+                  "side": SIDE, **FOG})
+    cases.append({"name": "hsv-dds", "variant": "hsv-dds", "offset_mode": "normal", "offset": 1.0, "side": SIDE})
+    cases.append({"name": "alpha-dds", "variant": "alpha-dds", "offset_mode": "normal", "offset": 1.0, "side": SIDE})
+    return cases
+
+
+CASES = case_list()
+
+
+@pytest.fixture(scope="module")
+def level():
+    target, inputs = level_with_sphere()
+    return target, Renderer(target), inputs
+
+
+def cpu_picture(level, case: dict, exposure: float):
+    target, renderer, inputs = level
+    settings = target_settings(target, model="hemisphere-radiosity", per_vertex=bool(case.get("per_vertex")),
+                               ground_map=variant_inputs(inputs, case))
+    camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
+    result = renderer.render(settings, camera, SIZE, SIZE, renderer.environment(target_settings(target)))
+    return display_pixels(result.radiance, exposure), result.covered, result
+
+
+@pytest.fixture(scope="module")
+def exposure(level):
+    _, _, result = cpu_picture(level, CASES[0], 1.0)
+    return auto_exposure(result.radiance[result.covered])
+
+
+@pytest.fixture(scope="module")
+def webgl(level, exposure, tmp_path_factory):
+    reason = browser_missing()
+    if reason:
+        pytest.skip(reason)
+    target, _, inputs = level
+    out = tmp_path_factory.mktemp("webgl-groundmap")
+    specs = [{"name": c["name"], "model": "hemisphere-radiosity", "per_vertex": c.get("per_vertex", False),
+              "radiosity": {k: v for k, v in c.items() if k not in ("name", "per_vertex")},
+              "camera": CAMERA, "width": SIZE, "height": SIZE, "exposure": exposure} for c in CASES]
+    (out / "cases.json").write_text(json.dumps(specs))
+    settings = target_settings(target, model="hemisphere-radiosity", ground_map=inputs)
+    with make_server(target, settings, exposure=exposure) as server:
+        run = subprocess.run(["node", str(DRIVER), "cases", server.url, str(out / "cases.json"), str(out)],
+                             capture_output=True, text=True, timeout=600, env=node_env())
+    log = json.loads((out / "log.json").read_text())
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert log["ready"] == "true" and log["errors"] == []
+    return {c["name"]: np.fromfile(out / f"{c['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for c in CASES}
+
+
+def difference(gpu, cpu, cpu_covered) -> tuple[float, float]:
+    both = (gpu[..., 3] > 0) & cpu_covered
+    assert both.sum() > 0.5 * SIZE * SIZE
+    diff = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[both]
+    return float(diff.mean()), float(np.percentile(diff, 99))
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
+def test_webgl_equals_cpu(webgl, level, exposure, case):
+    cpu, covered, _ = cpu_picture(level, case, exposure)
+    mean, p99 = difference(webgl[case["name"]], cpu, covered)
+    print(f"{case['name']}: mean {mean:.3f}/255, p99 {p99:.1f}/255")
+    assert mean < 1.0 and p99 < 4.0
+
+
+@pytest.mark.parametrize("gpu_case, cpu_case", [("hsv-normal", "hsv-none"), ("hsv-normal", "hsv-side"),
+                                                ("hsv-normal", "alpha-normal"),
+                                                ("alpha-normal", "alpha-normal-fog")])
+def test_the_comparison_tells_the_options_apart(webgl, level, exposure, gpu_case, cpu_case):
+    cpu, covered, _ = cpu_picture(level, next(c for c in CASES if c["name"] == cpu_case), exposure)
+    mean, p99 = difference(webgl[gpu_case], cpu, covered)
+    assert mean >= 1.0 or p99 >= 4.0
