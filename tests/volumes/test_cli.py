@@ -103,3 +103,28 @@ def test_vertex_colours_of_an_open_floor_under_a_uniform_sky_are_the_sky(tmp_pat
 def test_vertexbake_bad_output(cornell_bake, tmp_path, capsys, output, message):
     status, _, err = run(capsys, "vertexbake", cornell_bake, "-o", tmp_path / output)
     assert status == 2 and message in err and err.count("\n") == 1
+
+
+def test_render_finds_the_volume_in_the_bake_directory(cornell_bake, tmp_path, capsys):
+    """`patchlight volume BAKE -o BAKE` puts the volume beside the lightmap, where render and view look."""
+    import shutil
+
+    from patchlight.imaging.io import read_exr
+
+    bake = tmp_path / "bake"
+    shutil.copytree(cornell_bake, bake)
+    status, _, _ = run(capsys, "render", bake, "--model", "ambient-cube", "--size", "32x32", "-o", tmp_path / "sky.exr")
+    assert status == 0  # no volume yet: the sky (here the default ambient) as one probe
+    assert run(capsys, "volume", bake, "-o", bake, "--dims", "3,3,3", "--rays", "16", "--quiet")[0] == 0
+    for name, extra in (("squared.exr", []), ("naive.exr", ["--naive-weights"])):
+        status, _, _ = run(capsys, "render", bake, "--model", "ambient-cube", "--size", "32x32", "-o", tmp_path / name, *extra)
+        assert status == 0
+    squared, naive = read_exr(tmp_path / "squared.exr"), read_exr(tmp_path / "naive.exr")
+    assert squared.max() > 0 and naive.sum() > squared.sum()
+    assert not np.allclose(squared, read_exr(tmp_path / "sky.exr"), rtol=0.05)
+
+
+def test_render_with_a_missing_volume_says_so(cornell_bake, tmp_path, capsys):
+    status, _, err = run(capsys, "render", cornell_bake, "--model", "ambient-cube", "--volume", tmp_path,
+                         "-o", tmp_path / "x.png")
+    assert status == 2 and "no light_volume.json" in err and err.count("\n") == 1

@@ -8,6 +8,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from PIL import Image
 from browser_support import node_env
 from render_scenes import SHOWCASE_CAMERA, showcase_target
 
@@ -126,3 +127,18 @@ def test_probe_cubes_are_drawn(webgl):
     pictures, _ = webgl
     changed = np.abs(pictures["probes"].astype(int) - pictures["squared"]).max(axis=-1) > 10
     assert 20 < changed.sum() < 0.5 * SIZE * SIZE
+
+
+def test_the_live_page_moves_the_objects_and_takes_the_toggles(browser, showcase, tmp_path):
+    target, volume = showcase
+    with make_server(target, target_settings(target, volume=volume), exposure=EXPOSURE) as server:
+        run = subprocess.run([*browser, server.url, "live", str(tmp_path)], capture_output=True, text=True,
+                             timeout=300, env=node_env())
+    log = json.loads((tmp_path / "log.json").read_text())
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert log["ready"] == "true" and log["errors"] == []
+    first, later = log["volume"]["objects"]["first"], log["volume"]["objects"]["later"]
+    assert np.linalg.norm(np.subtract(first["sphere"]["center"], later["sphere"]["center"])) > 1e-3
+    assert "ms/frame" in log["stats"]
+    pixels = np.asarray(Image.open(tmp_path / "screenshot.png").convert("RGB")).astype(int)
+    assert pixels.std() > 10

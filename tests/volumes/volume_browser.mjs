@@ -1,5 +1,8 @@
 // Drives the viewer page in headless Chromium for the light-volume tests (the pattern of
-// tests/viewer/browser.mjs): node volume_browser.mjs URL STEPS.json OUT_DIR
+// tests/viewer/browser.mjs):
+//   node volume_browser.mjs URL STEPS.json OUT_DIR   test mode, the steps below
+//   node volume_browser.mjs URL live OUT_DIR         the page as a person sees it: the objects'
+//       places 0.5 s apart, then both volume toggles clicked and a screenshot.png
 // Each step {name, objects, probes, time, spec} shows or hides the volume's moving objects and
 // probe cubes, sets the objects' time, then renders spec with window.patchlight.renderCase and
 // writes OUT_DIR/<name>.rgba (RGBA, top row first). OUT_DIR/log.json holds {ready, errors,
@@ -16,7 +19,7 @@ const ARGS = ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable
   '--disable-quic'];
 
 const [url, stepsFile, outDir] = process.argv.slice(2);
-const steps = JSON.parse(fs.readFileSync(stepsFile, 'utf8'));
+const steps = stepsFile === 'live' ? [] : JSON.parse(fs.readFileSync(stepsFile, 'utf8'));
 const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'patchlight-chromium-'));
 const log = { errors: [], volume: { objects: {} } };
 const context = await chromium.launchPersistentContext(profile, {
@@ -28,10 +31,21 @@ try {
   page.on('console', (msg) => { if (msg.type() === 'error') log.errors.push(msg.text()); });
   page.on('pageerror', (err) => log.errors.push(String(err)));
   page.on('response', (res) => { if (res.status() >= 400) log.errors.push(`HTTP ${res.status()}: ${res.url()}`); });
-  await page.goto(`${url}?test=1`);
+  const live = stepsFile === 'live';
+  await page.goto(live ? url : `${url}?test=1`);
   await page.waitForFunction(() => document.body.dataset.ready, null, { timeout: 60000 });
   log.ready = await page.evaluate(() => document.body.dataset.ready);
-  if (log.ready === 'true') {
+  if (log.ready === 'true' && live) {
+    const objects = () => page.evaluate(() => window.patchlight.volume.objects());
+    log.volume.objects.first = await objects();
+    await page.waitForTimeout(500);
+    log.volume.objects.later = await objects();
+    await page.click('#volume-naive');
+    await page.click('#volume-probes');
+    await page.waitForTimeout(200);
+    log.stats = await page.textContent('#stats');
+    await page.screenshot({ path: path.join(outDir, 'screenshot.png') });
+  } else if (log.ready === 'true') {
     log.volume.baked = await page.evaluate(() => window.patchlight.volume.baked);
     for (const step of steps) {
       const result = await page.evaluate((s) => {
