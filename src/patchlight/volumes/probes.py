@@ -39,7 +39,7 @@ INSIDE_BACK_FRACTION = 0.5  # a probe whose rays mostly hit back faces lies insi
 AXIS_BACK_FRACTION = 0.25   # an axis seeing more back faces than this looks into geometry
 T_NEAR = 2e-4               # rays start this far along (x the scene's size): a probe on a face
                             # must not meet that face at t = 0 (Embree starts rays at t = 0)
-OPEN_SIDE_MIN = 0.05       # below this length the rays' open directions cancel out: no open side
+OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
 RAYS_PER_CHUNK = 1 << 20    # rays traced per batch: bounds memory at ~100 MB
 GOLDEN = 0.6180339887498949
 
@@ -88,9 +88,10 @@ class IncidentGatherer:
         light = np.zeros((len(origins), 3), np.float32)
         back = np.zeros(len(origins), np.float32)
         open_side = np.zeros((len(origins), 3), np.float32)
+        no_offset = np.zeros(len(origins), np.float32)  # free points: rays start at the point itself
         for start in range(0, len(origins), per_chunk):
             rows = np.arange(start, min(start + per_chunk, len(origins)), dtype=np.int64)
-            light[rows], back[rows], open_side[rows] = self._gather_rows(origins, normals, rows)
+            light[rows], back[rows], open_side[rows] = self._gather_rows(origins, normals, no_offset, rows)
             if advance is not None:
                 advance(len(rows))
         s = self.settings
@@ -99,10 +100,10 @@ class IncidentGatherer:
                               s.sun_samples)
         return light, back, open_side
 
-    def _gather_rows(self, origins, normals, rows) -> tuple[np.ndarray, ...]:
+    def _gather_rows(self, origins, normals, offset, rows) -> tuple[np.ndarray, ...]:
+        """gather's results for `rows`; each row's ray pattern turned by its own angle."""
         d = self.rays_per_point
         angles = 2 * np.pi * np.modf((rows + self.settings.seed) * GOLDEN)[0]
-        offset = np.zeros(len(origins), np.float32)
         o, dirs = _kernels.make_rays(origins, normals, offset, rows, self.dirs, angles)
         hits = self.tracer.intersect(o + self.t_near * dirs, dirs)
         light, back, open_side = _volume_kernels.sum_rows(
