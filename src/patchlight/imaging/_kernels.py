@@ -1,4 +1,4 @@
-"""Numba kernels for Radiance RGBE scanlines (run-length coded and flat).
+"""Numba kernels of imaging/: dilation, and Radiance RGBE scanlines (run-length coded and flat).
 
 Byte layout (Radiance's picture format): a scanline of width 8..32767 may start with the
 marker 2, 2, W >> 8, W & 255; then each of the four components (R, G, B, E) follows as runs:
@@ -131,3 +131,41 @@ def encode_scanlines(rgbe):
         for c in range(4):
             pos = _encode_component(rgbe[y, :, c], out, pos)
     return out[:pos]
+
+
+@numba.njit(cache=True)
+def dilate_rings(image, known, allowed, rings):
+    """Grow image (H, W, C) in place from its `known` (H, W) texels by up to `rings` rings:
+    each unknown texel in `allowed` with known 8-neighbours takes their mean (all texels of a
+    ring are filled from the rings before it). Returns the grown `known` mask."""
+    h, w, c = image.shape
+    known = known.copy()
+    for _ in range(rings):
+        grown = known.copy()
+        any_grown = False
+        for y in range(h):
+            for x in range(w):
+                if known[y, x] or not allowed[y, x]:
+                    continue
+                count = 0
+                for dy in range(-1, 2):
+                    for dx in range(-1, 2):
+                        yy, xx = y + dy, x + dx
+                        if (dy or dx) and 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                            count += 1
+                if count == 0:
+                    continue
+                for k in range(c):
+                    total = 0.0
+                    for dy in range(-1, 2):
+                        for dx in range(-1, 2):
+                            yy, xx = y + dy, x + dx
+                            if (dy or dx) and 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                                total += image[yy, xx, k]
+                    image[y, x, k] = total / count
+                grown[y, x] = True
+                any_grown = True
+        known = grown
+        if not any_grown:
+            break
+    return known
