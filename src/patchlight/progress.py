@@ -46,8 +46,8 @@ class Progress:
 
         try:
             yield advance
+            if task is not None:  # a finished stage shows full, however many it skipped
+                total = self._bar.tasks[task].total or 1
+                self._bar.update(task, completed=total, total=total)
         finally:
             self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
-            if task is not None:
-                self._bar.update(task, completed=self._bar.tasks[task].total or 1,
-                                 total=self._bar.tasks[task].total or 1)
