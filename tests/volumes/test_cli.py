@@ -128,3 +128,28 @@ def test_render_with_a_missing_volume_says_so(cornell_bake, tmp_path, capsys):
     status, _, err = run(capsys, "render", cornell_bake, "--model", "ambient-cube", "--volume", tmp_path,
                          "-o", tmp_path / "x.png")
     assert status == 2 and "no light_volume.json" in err and err.count("\n") == 1
+
+
+def test_vertices_under_a_wall_take_the_light_of_the_visible_floor():
+    """A floor running under a solid wall: the bake leaves the texels deep under the wall black,
+    yet the floor's vertices there get the light the visible floor shows, extrapolated."""
+    from patchlight.bake import bake
+    from patchlight.config import BakeSettings
+    from patchlight.scene import SceneBuilder
+    from patchlight.shading.textures import sample_bilinear
+    from patchlight.solved import SolvedScene
+
+    b = SceneBuilder()
+    m = b.material("grey", (0.5, 0.5, 0.5))
+    b.quad([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], m, (0, 1, 0))
+    b.box((-3, 0, -3), (-0.5, 2, 3), m)
+    result = bake(b.scene("under", sky=Sky.uniform((1, 1, 1))), BakeSettings(resolution=64, rays=64))
+    solved = SolvedScene(result.scene, result.lightmap, "under")
+    scene = solved.scene
+    floor = np.unique(scene.indices[np.abs(scene.positions[scene.indices][:, :, 1]).max(axis=1) < 1e-6])
+    floor = floor[np.abs(scene.positions[floor, 0]) == 2]  # the floor quad's corners at x = -2 and x = 2
+    under = floor[scene.positions[floor, 0] < 0]
+    assert sample_bilinear(solved.lightmap, scene.uv1[under], wrap="clamp").max() < 0.05  # black there
+    light = vertex_incident(solved)
+    assert light[under].min() > 0.3
+    assert light[floor].max() < 1.1  # a linear fit of a concave falloff overshoots a little, no more

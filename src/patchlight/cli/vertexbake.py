@@ -1,8 +1,9 @@
 """`patchlight vertexbake SCENE_OR_BAKE_DIR -o out.glb`: incident light per vertex as COLOR_0.
 
-Each vertex takes the solved lightmap at its lightmap UV (the patches around it; see
-patchlight.volumes.vertex). COLOR_0 = the file's vertex colour x incident light I, linear,
-above 1 where the light is bright: drawn unlit, base colour x COLOR_0 is the lit surface."""
+The vertex values are fitted to the solved patches around them (least squares over the
+triangles' interpolation, patches inside geometry left out; see patchlight.volumes.vertex).
+COLOR_0 = the file's vertex colour x incident light I, linear, above 1 where the light is
+bright: drawn unlit, base colour x COLOR_0 is the lit surface."""
 from __future__ import annotations
 
 import json

@@ -79,25 +79,33 @@ class IncidentGatherer:
         return len(self.dirs)
 
     def gather(self, origins: np.ndarray, normals: np.ndarray, advance=None) -> tuple[np.ndarray, ...]:
-        """At origins (N, 3), for patches facing unit normals (N, 3): incident light (N, 3) f32;
-        (N,) the share of each one's rays that met a back face; (N, 3) the weighted sum of the
-        directions of its other rays (where the open space lies). advance(n) reports progress."""
-        origins = np.ascontiguousarray(origins, np.float32)
-        normals = np.ascontiguousarray(normals, np.float32)
-        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_point)
-        light = np.zeros((len(origins), 3), np.float32)
-        back = np.zeros(len(origins), np.float32)
-        open_side = np.zeros((len(origins), 3), np.float32)
-        no_offset = np.zeros(len(origins), np.float32)  # free points: rays start at the point itself
-        for start in range(0, len(origins), per_chunk):
-            rows = np.arange(start, min(start + per_chunk, len(origins)), dtype=np.int64)
-            light[rows], back[rows], open_side[rows] = self._gather_rows(origins, normals, no_offset, rows)
-            if advance is not None:
-                advance(len(rows))
+        """At free points origins (N, 3), for patches facing unit normals (N, 3): incident light
+        (N, 3) f32; (N,) the share of each one's rays that met a back face; (N, 3) the weighted
+        sum of the directions of its other rays (where the open space lies). advance(n) reports
+        progress."""
+        light, back, open_side = self.trace(origins, normals, advance=advance)
         s = self.settings
         sun_angle = None if s.sun_angle is None else np.radians(s.sun_angle)
         light += direct_light(origins, normals, self.solved.scene.lights, self.tracer, s.falloff, sun_angle,
                               s.sun_samples)
+        return light, back, open_side
+
+    def trace(self, origins: np.ndarray, normals: np.ndarray, offset: np.ndarray | None = None,
+              advance=None) -> tuple[np.ndarray, ...]:
+        """gather without the lights' direct share; offset (N,): lift each origin this far along
+        its normal first (points on surfaces), default 0 (free points)."""
+        origins = np.ascontiguousarray(origins, np.float32)
+        normals = np.ascontiguousarray(normals, np.float32)
+        offset = np.zeros(len(origins), np.float32) if offset is None else np.ascontiguousarray(offset, np.float32)
+        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_point)
+        light = np.zeros((len(origins), 3), np.float32)
+        back = np.zeros(len(origins), np.float32)
+        open_side = np.zeros((len(origins), 3), np.float32)
+        for start in range(0, len(origins), per_chunk):
+            rows = np.arange(start, min(start + per_chunk, len(origins)), dtype=np.int64)
+            light[rows], back[rows], open_side[rows] = self._gather_rows(origins, normals, offset, rows)
+            if advance is not None:
+                advance(len(rows))
         return light, back, open_side
 
     def _gather_rows(self, origins, normals, offset, rows) -> tuple[np.ndarray, ...]:

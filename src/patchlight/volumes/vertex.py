@@ -1,11 +1,18 @@
 """Baking incident light to vertex colours, for targets that draw no lightmaps.
 
-Each vertex takes the solved lightmap at its own lightmap UV: the bilinear mean of the
-patches (texels) around it. That is the radiosity solution itself, converged and with the
-texels inside geometry already filled from their neighbours by the bake, so vertices where
-boxes meet (common in level geometry) are not darkened, and no new rays add noise. A new
-gather at the vertex would see the same light, but at such joints its rays start inside the
-neighbouring box.
+The vertex colours are taken from the solved patches around each vertex: those whose
+interpolation across the triangles (what the GPU does with COLOR_0) comes closest, in least
+squares, to the incident light I of every patch (lightmap texel) outside geometry. Each
+patch p lies in a triangle at barycentrics b_p, so with c the (V, 3) vertex values,
+sum_k b_pk c_(corner k) should equal I_p; the normal equations (A^T A + lambda) c =
+A^T I + lambda c0 have a tiny lambda that only decides vertices no valid patch touches,
+which keep c0, the lightmap read at their own lightmap UV. So:
+- a surface whose light varies linearly gets it exactly, and a uniformly lit one exactly I;
+- vertices that lie inside other geometry (a floor running under the walls, common in level
+  geometry, where the bake leaves the texels black) take the light the visible part of their
+  triangles shows, extrapolated, instead of the black at their corner.
+Patches inside geometry are found as the bake finds them: most of a few gather rays meet
+back faces. No light is gathered anew, so the result carries no extra noise.
 
 COLOR_0 = the file's vertex colour (white if none) x (I, 1): a renderer that multiplies the
 base colour by COLOR_0 and lights nothing (glTF's unlit shading, patchlight's `unlit`
@@ -17,15 +24,56 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
 
 from ..scene.model import Scene
 from ..shading.textures import sample_bilinear
 from ..solved import SolvedScene
+from .probes import INSIDE_BACK_FRACTION, IncidentGatherer, VolumeSettings
+
+INSIDE_RAYS = 16       # rays per patch to tell patches inside geometry (back faces) from the rest
+REGULARIZATION = 1e-3  # lambda, relative to the mean weight a vertex gets from its patches
 
 
 def vertex_incident(solved: SolvedScene) -> np.ndarray:
-    """(V, 3) f32 incident light I at every vertex of the solved scene."""
-    return sample_bilinear(solved.lightmap, solved.scene.uv1, wrap="clamp")
+    """(V, 3) f32 incident light I at every vertex of the solved scene (module docstring)."""
+    from ..atlas.raster import rasterize
+    from ..bake import ray_offsets
+
+    scene = solved.scene
+    at_uv1 = sample_bilinear(solved.lightmap, scene.uv1, wrap="clamp")
+    height, width = solved.lightmap.shape[:2]
+    patches, _ = rasterize(scene, width, height)
+    gatherer = IncidentGatherer(solved, VolumeSettings(rays=INSIDE_RAYS))
+    _, back, _ = gatherer.trace(patches.position, patches.normal, ray_offsets(scene, patches))
+    rows = np.flatnonzero(back <= INSIDE_BACK_FRACTION)
+    if len(rows) == 0:
+        return at_uv1
+    triangle = patches.triangle[rows]
+    weights = barycentrics(scene.positions, scene.indices, triangle, patches.position[rows])
+    A = sp.csr_matrix((weights.ravel(), (np.repeat(np.arange(len(rows)), 3), scene.indices[triangle].ravel())),
+                      shape=(len(rows), len(scene.positions)))
+    incident = solved.lightmap[patches.texel_y[rows], patches.texel_x[rows]].astype(np.float64)
+    normal = (A.T @ A).tocsc()
+    diagonal = normal.diagonal()
+    lam = REGULARIZATION * float(diagonal[diagonal > 0].mean())
+    system = normal + lam * sp.identity(len(scene.positions), format="csc")
+    fitted = spsolve(system, A.T @ incident + lam * at_uv1.astype(np.float64))
+    return np.maximum(np.asarray(fitted).reshape(-1, 3), 0.0).astype(np.float32)
+
+
+def barycentrics(positions: np.ndarray, indices: np.ndarray, triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, 3) barycentric weights of points (N, 3) in their triangles (N,) (points in the plane)."""
+    a, b, c = (positions[indices[triangle, k]].astype(np.float64) for k in range(3))
+    e1, e2, p = b - a, c - a, points.astype(np.float64) - a
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    dp1, dp2 = (p * e1).sum(1), (p * e2).sum(1)
+    det = d11 * d22 - d12 * d12
+    det = np.where(det > 0, det, 1.0)
+    v = (d22 * dp1 - d12 * dp2) / det
+    w = (d11 * dp2 - d12 * dp1) / det
+    return np.stack([1 - v - w, v, w], axis=1)
 
 
 def with_vertex_light(scene: Scene, incident: np.ndarray) -> Scene:
