@@ -61,6 +61,7 @@ def test_volume_compact_and_spacing(cornell_bake, tmp_path, capsys):
     (["--dims", "3,0,3"], r"expected NX,NY,NZ"),
     (["--spacing", "-1"], r"--spacing -1.0: must be a positive number"),
     (["--rays", "0"], r"--rays 0: must lie in 1..16384"),
+    (["--bounds", "0,0.2,0,0.5,0.2,0.5", "--dims", "3,3,3"], r"3 probes along Y, where the box has no extent"),
 ])
 def test_volume_bad_input_is_one_line_and_writes_nothing(cornell_bake, tmp_path, capsys, args, message):
     status, _, err = run(capsys, "volume", cornell_bake, "-o", tmp_path / "v", *args)

@@ -66,7 +66,11 @@ def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
         counts = [int(n) for n in dims]
         if len(counts) != 3 or min(counts) < 1:
             raise PatchlightError(f"--dims {','.join(map(str, dims))}: expected three probe counts >= 1")
-        step = np.array([e / (n - 1) if n > 1 and e > 0 else 1.0 for e, n in zip(extent, counts)])
+        flat = [axis for axis in range(3) if counts[axis] > 1 and extent[axis] <= 0]
+        if flat:
+            raise PatchlightError(f"--dims {','.join(map(str, counts))}: {counts[flat[0]]} probes along "
+                                  f"{'XYZ'[flat[0]]}, where the box has no extent; use 1 there")
+        step = np.array([e / (n - 1) if n > 1 else 1.0 for e, n in zip(extent, counts)])
     total = math.prod(counts)
     if total > MAX_PROBES:
         raise PatchlightError(f"{counts[0]} x {counts[1]} x {counts[2]} = {total:,} probes is more than "
