@@ -89,19 +89,29 @@ def settings_from_args(args) -> BakeSettings:
                         save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
 
 
-def load_lit_scene(args):
-    """The scene named on the command line, with the sky the flags give."""
-    from ..scene import Sky, load_scene
+def sky_from_args(args):
+    """The Sky the --sky / --sky-gradient / --sky-image flags ask for, or None (keep the scene's)."""
+    from ..scene import Sky
 
-    scene = load_scene(args.scene)
     if args.sky is not None:
-        scene.sky = Sky.uniform(args.sky)
-    elif args.sky_gradient is not None:
-        scene.sky = Sky.gradient(*args.sky_gradient)
-    elif args.sky_image is not None:
+        return Sky.uniform(args.sky)
+    if args.sky_gradient is not None:
+        return Sky.gradient(*args.sky_gradient)
+    if args.sky_image is not None:
         from ..imaging.io import read_environment
 
-        scene.sky = Sky.from_image(read_environment(args.sky_image))
+        return Sky.from_image(read_environment(args.sky_image))
+    return None
+
+
+def load_lit_scene(args):
+    """The scene named on the command line, with the sky the flags give."""
+    from ..scene import load_scene
+
+    scene = load_scene(args.scene)
+    sky = sky_from_args(args)
+    if sky is not None:
+        scene.sky = sky
     return scene
 
 

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
-from .bake import add_scene_options
+from .bake import add_scene_options, sky_from_args
 
 DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
 LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this many texels
@@ -59,20 +59,6 @@ def settings_from_args(args):
     return settings
 
 
-def _sky_override(args):
-    from ..scene import Sky
-
-    if args.sky is not None:
-        return Sky.uniform(args.sky)
-    if args.sky_gradient is not None:
-        return Sky.gradient(*args.sky_gradient)
-    if args.sky_image is not None:
-        from ..imaging.io import read_environment
-
-        return Sky.from_image(read_environment(args.sky_image))
-    return None
-
-
 def solve_here(args):
     """(SolvedScene, bake directory relative to the output): the bake directory as given, or
     the scene baked now and written into the output directory."""
@@ -82,7 +68,7 @@ def solve_here(args):
     from .bake import load_lit_scene
 
     if is_bake_dir(args.scene):
-        solved = load_solved(args.scene, sky=_sky_override(args))
+        solved = load_solved(args.scene, sky=sky_from_args(args))
         return solved, os.path.relpath(Path(args.scene).resolve(), args.output.resolve())
     if Path(args.scene).is_dir():
         raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
