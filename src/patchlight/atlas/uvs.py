@@ -32,11 +32,12 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ..config import BakeSettings
 from ..errors import PatchlightError
 from ..scene.model import Scene, face_normals
 from . import _kernels
 
-DEFAULT_TEXELS_PER_UNIT = 16.0  # texels per metre; a 4 m wall gets 64 texels
+DEFAULT_TEXELS_PER_UNIT = BakeSettings.texels_per_unit  # texels per metre (config.py)
 MIN_SIZE, MAX_SIZE = 16, 8192   # lightmap edge in texels
 MAX_TEXELS = 8192 * 8192
 PLANAR_COS = 0.99999            # fallback charts: normals within ~0.26 degrees of the seed's
