@@ -21,16 +21,12 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     import importlib
 
-    parser = _Parser(prog="patchlight", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="patchlight", description="Baked radiosity lightmaps, light volumes, ground "
+                     "maps and the classic real-time lighting models, on the CPU. "
+                     "`patchlight COMMAND --help` for each command.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in SUBCOMMANDS:
-        try:
-            module = importlib.import_module(f"patchlight.cli.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"patchlight.cli.{name}":
-                raise
-            continue
-        module.register(sub)
+        importlib.import_module(f"patchlight.cli.{name}").register(sub)
     return parser
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import PatchlightError
 from ..volumes.probes import VolumeSettings
-from .bake import add_scene_options
+from .bake import add_scene_options, sky_from_args
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
 
@@ -45,21 +45,6 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print volume.json on stdout")
     p.set_defaults(func=run)
-
-
-def sky_from_args(args):
-    """The Sky the flags ask for, or None to keep the scene's."""
-    from ..scene import Sky
-
-    if args.sky is not None:
-        return Sky.uniform(args.sky)
-    if args.sky_gradient is not None:
-        return Sky.gradient(*args.sky_gradient)
-    if args.sky_image is not None:
-        from ..imaging.io import read_environment
-
-        return Sky.from_image(read_environment(args.sky_image))
-    return None
 
 
 def load_solved_from_args(args, quiet: bool):
