@@ -1,6 +1,8 @@
 """`patchlight demo`: bake the built-in room into ./out/room and say where the results are."""
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 
 
@@ -9,6 +11,12 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, default=Path("out/room"), metavar="DIR")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=run)
+
+
+def _command() -> str:
+    """How this program was started (`.venv/bin/patchlight` from `make demo`), for the hint."""
+    invoked = sys.argv[0] if sys.argv and Path(sys.argv[0]).name == "patchlight" else "patchlight"
+    return os.path.relpath(invoked) if os.path.sep in invoked else invoked
 
 
 def run(args) -> int:
@@ -20,5 +28,5 @@ def run(args) -> int:
         out = args.output.resolve()
         print(f"open {out}/lightmap.png (the lightmap), {out}/adaptive.png (computed vs interpolated texels),")
         print(f"     {out}/scene.glb (the room with its lightmap), {out}/bake.json (figures);")
-        print(f"look at it with: patchlight view {args.output}")
+        print(f"look at it with: {_command()} view {args.output}")
     return status
