@@ -103,3 +103,16 @@ def test_every_model_and_option_renders_the_showcase():
         for options in ({}, {"per_vertex": True}, {"normal_map": True}, {"falloff": "range"}):
             result = renderer.render(target_settings(target, model=model, **options), camera, 24, 24)
             assert np.isfinite(result.radiance).all() and result.radiance[result.covered].max() > 0
+
+
+def test_the_sky_shows_behind_the_surfaces():
+    from patchlight.scene.sky import Sky
+
+    sky = Sky.gradient([0.1, 0.2, 0.9], [0.5, 0.5, 0.6], [0.05, 0.04, 0.03])
+    target = sphere_target(sky=sky)
+    camera = Camera(np.array([0.0, 0.0, 5.0]), np.zeros(3), 60.0)
+    result = Renderer(target).render(target_settings(target, "lambert"), camera, 32, 32)
+    _, directions = camera.rays(32, 32)
+    behind = ~result.covered.ravel()
+    assert result.covered.any() and behind.any()
+    np.testing.assert_allclose(result.radiance.reshape(-1, 3)[behind], sky.radiance(directions[behind]), rtol=1e-6)

@@ -28,7 +28,7 @@ MAX_PASS_THROUGH = 16  # single-sided back faces one ray may pass through before
 
 @dataclass
 class RenderResult:
-    """radiance (H, W, 3) float32 linear, black where no surface; covered (H, W) bool."""
+    """radiance (H, W, 3) float32 linear, the sky (or black) where no surface; covered (H, W) bool."""
 
     radiance: np.ndarray
     covered: np.ndarray
@@ -156,9 +156,12 @@ class Renderer:
         materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
         hits = self.trace(origins, directions, where)
         frags = self.fragments(hits, settings, eye, materials)
+        covered = hits.tri >= 0
         radiance = np.zeros((len(origins), 3), np.float32)
-        radiance[hits.tri >= 0] = shade_fragments(settings, frags, materials, eye, self.target.lightmap, env)
-        return radiance, hits.tri >= 0
+        radiance[covered] = shade_fragments(settings, frags, materials, eye, self.target.lightmap, env)
+        if self.target.scene.sky is not None:  # the sky behind, as the viewer draws it
+            radiance[~covered] = self.target.scene.sky.radiance(directions[~covered])
+        return radiance, covered
 
     def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int,
                env: np.ndarray | None = None) -> RenderResult:
@@ -189,9 +192,7 @@ class Renderer:
         inner = replace(settings, per_vertex=False, normal_map=False,
                         model="lightmap" if self.target.lightmap is not None else "lambert")
         where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
-        radiance, covered = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
-        if scene.sky is not None:
-            radiance[~covered] = scene.sky.radiance(dirs[~covered])
+        radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
         alpha = light_highlight(dirs, settings.lights)
         return np.concatenate([radiance, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)
 

@@ -92,6 +92,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "bounds": [_floats(lo), _floats(hi)],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
         "env": pack.add("env", env),
+        "sky_background": target.scene.sky is not None,  # env is then the sky: draw it behind
         "pictures": target.bake_pictures(),
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),

@@ -7,6 +7,7 @@ import { constantTexture, loadBundle } from './bundle.js';
 import { installVolume, volumeUniforms } from './ambient_cube.js';
 import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
+import { skyDome } from './sky.js';
 
 const KINDS = ['directional', 'point', 'spot'];        // light_common.glsl LIGHT_* ids
 const FALLOFFS = ['inverse-square', 'range'];          // FALLOFF_* ids
@@ -15,8 +16,9 @@ const $ = (id) => document.getElementById(id);
 class Viewer {
   async init(canvas) {
     const chunks = new ChunkLibrary();
-    const [bundle, vertexShader, fragmentShader, models] = await Promise.all([
-      loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'), chunks.models()]);
+    const [bundle, vertexShader, fragmentShader, models, displayGlsl] = await Promise.all([
+      loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'), chunks.models(),
+      chunks.text('display.glsl')]);
     this.bundle = bundle;
     this.shaders = { vertexShader, fragmentShader };
     this.manifest = bundle.manifest;
@@ -36,6 +38,9 @@ class Viewer {
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
     this.scene = new THREE.Scene();
     this.scene.add(new THREE.Mesh(bundle.geometry(), this.materials));
+    this.sky = skyDome(this.uniforms, displayGlsl);
+    this.sky.visible = this.manifest.sky_background;
+    this.scene.add(this.sky);
     this.groundMap = new GroundMapDemo(this, vertexShader, fragmentShader);  // cars lit by a ground map
     const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
     this.radius = Math.max(lo.distanceTo(hi) / 2, 1e-3);
@@ -307,6 +312,7 @@ async function main() {
       viewer.groundMap.configure(spec.radiosity);
       st.ambientCubeNaive = Boolean(spec.ambient_cube_naive);
       st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
+      viewer.sky.visible = false;  // the pixel comparisons cover surfaces only (alpha 0 elsewhere)
       viewer.apply();
       viewer.setSize(spec.width, spec.height);
       viewer.setCamera(spec.camera.eye, spec.camera.target, spec.camera.fov);
