@@ -3,8 +3,10 @@ hemicubes: the radiosity article found point lights lost at hemicube edges).
 
 Units (docs/architecture.md): each light adds incident light I = radiance-equivalent of its
 irradiance, E / pi. Sun: I = Es max(0, n.l) V / pi. Point and spot: I = Iv cos / d^2 V / pi
-(inverse-square, windowed smoothly to 0 at the light's range when it has one), or with the
-game falloff `range`: I = Iv cos (1 - (d/r)^2)_+ V / pi.
+(inverse-square, the physical law: a glTF range does not cut it), or with the game falloff
+`range`: I = Iv cos (1 - (d/r)^2)_+ V / pi; spot cones as KHR_lights_punctual. Point and
+spot lights use the runtime's own functions (shading.lights), so a baked lamp and the same
+lamp in the shaders give the same light.
 """
 from __future__ import annotations
 
@@ -12,31 +14,8 @@ import numpy as np
 
 from ..scene.model import Light
 from ..rays.tracer import Tracer
+from ..shading.lights import from_scene_light, incident_light
 from .hemicube import concentric_disk
-
-FALLOFFS = ("inverse-square", "range")
-
-
-def falloff_factor(d: np.ndarray, light: Light, default: str) -> np.ndarray:
-    """(N,) distance attenuation of a point or spot light at distances d (metres)."""
-    model = light.falloff or default
-    if model == "range":
-        r = light.range if light.range else 10.0
-        return np.clip(1.0 - (d / r) ** 2, 0.0, 1.0)
-    inv = 1.0 / np.maximum(d, 1e-6) ** 2
-    if light.range:
-        # KHR_lights_punctual's recommended window: reaches 0 smoothly at the range.
-        inv = inv * np.clip(1.0 - (d / light.range) ** 4, 0.0, 1.0) ** 2
-    return inv
-
-
-def spot_factor(to_point: np.ndarray, light: Light) -> np.ndarray:
-    """(N,) cone attenuation: 1 inside the inner cone, 0 outside the outer, smooth between
-    (KHR_lights_punctual's interpolation of the cosine, squared)."""
-    cos_d = to_point @ np.asarray(light.direction, np.float64)
-    cos_outer, cos_inner = np.cos(light.outer_cone), np.cos(light.inner_cone)
-    scale = 1.0 / max(1e-3, cos_inner - cos_outer)
-    return np.clip((cos_d - cos_outer) * scale, 0.0, 1.0) ** 2
 
 
 def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
@@ -75,20 +54,19 @@ def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samp
 
 def local_light(origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
     """(N, 3) incident light from a point or spot light with ray-traced shadows, averaged
-    over the K points per texel of origins (N, K, 3)."""
-    value = np.zeros(len(origins))
+    over the K points per texel of origins (N, K, 3). The falloff and cone are the runtime
+    models' own (shading.lights, the NumPy twin of the GLSL), so baked and real-time light agree."""
+    lamp = from_scene_light(light, falloff, f"light {light.name or light.kind!r}")
+    value = np.zeros((len(origins), 3))
     for k in range(origins.shape[1]):
         o = origins[:, k]
-        to_light = np.asarray(light.position, np.float64)[None] - o
-        d = np.linalg.norm(to_light, axis=1)
-        l = to_light / np.maximum(d, 1e-9)[:, None]
-        strength = np.einsum("ij,ij->i", normals, l) * falloff_factor(d, light, falloff)
-        if light.kind == "spot":
-            strength *= spot_factor(-l, light)
-        lit = np.flatnonzero(strength > 0)
-        blocked = tracer.occluded(o[lit], l[lit], (d[lit] * (1 - 1e-4)).astype(np.float32))
-        value[lit] += np.where(blocked, 0.0, strength[lit])
-    return (value / origins.shape[1])[:, None] * light.radiometric[None] / np.pi
+        L, I = incident_light(lamp, o)
+        strength = np.maximum(np.einsum("ij,ij->i", normals, L), 0.0)[:, None] * I
+        lit = np.flatnonzero(strength.max(axis=1) > 0)
+        d = np.linalg.norm(lamp.position - o[lit], axis=1)
+        blocked = tracer.occluded(o[lit], L[lit], (d * (1 - 1e-4)).astype(np.float32))
+        value[lit] += np.where(blocked[:, None], 0.0, strength[lit])
+    return value / origins.shape[1]
 
 
 def direct_light(origins: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
