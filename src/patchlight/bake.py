@@ -47,13 +47,13 @@ class BakeResult:
 def _check_scene(scene: Scene) -> None:
     scene.validate()
     if not scene.has_light():
-        raise PatchlightError(f"{scene.source or scene.name}: nothing lights the scene "
+        raise PatchlightError(f"{scene.label}: nothing lights the scene "
                               "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
 
 
 def _input_warnings(scene: Scene) -> list[str]:
     """One line per thing the importer left out or ignored."""
-    where = scene.source or scene.name
+    where = scene.label
     counted = [(scene.extras.get("skipped_primitives", 0), "point/line primitives skipped"),
                (scene.extras.get("degenerate_triangles", 0), "degenerate triangles skipped")]
     return [f"{where}: {n} {what}" for n, what in counted if n] + list(scene.extras.get("warnings", []))
@@ -157,6 +157,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     from .atlas.uvs import check_bake_memory, ensure_lightmap_uvs
 
     settings = settings or BakeSettings()
+    settings.validate()
     _check_scene(scene)
     start = time.perf_counter()
     with Progress(quiet) as progress:
@@ -168,7 +169,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
-            raise PatchlightError(f"{scene.source}: no lightmap texel is covered by a triangle")
+            raise PatchlightError(f"{scene.label}: no lightmap texel is covered by a triangle")
         with progress.stage("tracer"):
             tracer = Tracer(scene.positions, scene.indices)
         offset = ray_offsets(scene, patches)

@@ -18,15 +18,21 @@
 | falloff           | str           | inverse-square | point/spot falloff when a light names none: or "range"         |
 | exposure          | 1 / radiance  | "auto"         | PNG = 1 - exp(-k I); auto puts the 90th percentile at 0.8       |
 | max_memory        | bytes         | 8 GiB          | above this the form-factor matrix is not kept: re-gather a pass |
-| seed              | int           | 1              | random rotation of the stratified pattern per patch             |
+| seed              | int           | 1              | random rotation of the stratified pattern per patch (>= 0)      |
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
+| save_passes       | bool          | False          | keep one lightmap per pass (pass_01.png, ...)                   |
 | ray               | str           | None           | Ray cluster address for the gather ("local": start one here)    |
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
+from .errors import PatchlightError
+
 GiB = 1 << 30
+FALLOFFS = ("inverse-square", "range")
+GATHERS = ("stratified", "hemicube")
 
 
 @dataclass
@@ -54,3 +60,30 @@ class BakeSettings:
 
     def to_json(self) -> dict:
         return asdict(self)
+
+    def validate(self) -> None:
+        """PatchlightError naming the first setting outside its range (the table above)."""
+        def number(x) -> bool:
+            return isinstance(x, (int, float)) and math.isfinite(x)
+
+        checks = [
+            (self.gather in GATHERS, f"gather must be one of {', '.join(GATHERS)}"),
+            (self.falloff in FALLOFFS, f"falloff must be one of {', '.join(FALLOFFS)}"),
+            (isinstance(self.passes, int) and self.passes >= 1, "passes must be a whole number >= 1"),
+            (number(self.tolerance) and self.tolerance > 0, "tolerance must be a positive number"),
+            (number(self.accuracy) and 0 < self.accuracy < 1, "accuracy must lie between 0 and 1"),
+            (isinstance(self.rays, int) and 1 <= self.rays <= 16384, "rays must be a whole number in 1..16384"),
+            (isinstance(self.hemicube_size, int) and 2 <= self.hemicube_size <= 512 and self.hemicube_size % 2 == 0,
+             "hemicube size must be an even number in 2..512"),
+            (isinstance(self.sun_samples, int) and self.sun_samples >= 1, "sun samples must be a whole number >= 1"),
+            (isinstance(self.texel_samples, int) and 1 <= self.texel_samples <= 4, "texel samples must be 1..4"),
+            (self.sun_angle is None or (number(self.sun_angle) and 0 <= self.sun_angle < 90),
+             "sun angle must lie in 0..90 degrees"),
+            (self.exposure == "auto" or (number(self.exposure) and self.exposure > 0),
+             "exposure must be a positive number or auto"),
+            (number(self.max_memory) and self.max_memory >= 0, "max memory must be a number >= 0"),
+            (isinstance(self.seed, int) and self.seed >= 0, "seed must be a whole number >= 0"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise PatchlightError(message)

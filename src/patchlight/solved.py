@@ -13,6 +13,7 @@ import numpy as np
 from .config import BakeSettings
 from .errors import PatchlightError
 from .scene.model import Scene
+from .shading.surface import interpolate
 
 
 @dataclass
@@ -31,8 +32,12 @@ class SolvedScene:
         return sample_bilinear(self.lightmap, uv1, wrap="clamp")
 
     def reflectance(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """(N, 3) linear base colour (factor x texture at uv0) at hit points."""
-        return self._material_rgb(tri, u, v, "base_color", "base_color_texture")
+        """(N, 3) linear base colour (factor x texture at uv0 x COLOR_0) at hit points: the
+        reflectance the bake gave its patches."""
+        rho = self._material_rgb(tri, u, v, "base_color", "base_color_texture")
+        if self.scene.colors is not None:
+            rho *= _at_hits(self.scene.colors[:, :3], self.scene.indices, tri, u, v)
+        return rho
 
     def emission(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(N, 3) emitted radiance at hit points."""
@@ -62,9 +67,8 @@ class SolvedScene:
 
 
 def _at_hits(attribute: np.ndarray, indices: np.ndarray, tri, u, v) -> np.ndarray:
-    corners = attribute[indices[tri]]  # (N, 3, C)
-    w = np.stack([1 - u - v, u, v], axis=1)[..., None]
-    return (corners * w).sum(axis=1).astype(np.float32)
+    """(N, C) per-vertex attribute (V, C) interpolated at hits (triangle, barycentrics u, v)."""
+    return interpolate(attribute, indices[tri], np.stack([1 - u - v, u, v], axis=1))
 
 
 def is_bake_dir(path: str | Path) -> bool:

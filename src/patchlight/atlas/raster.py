@@ -34,7 +34,7 @@ def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarra
     """Patches of a width x height lightmap over scene.uv1, rows ordered by texel (y, x).
 
     Returns (patches, chart_per_triangle (T,) i32)."""
-    where = scene.source or scene.name
+    where = scene.label
     if scene.uv1 is None:
         raise PatchlightError(f"{where}: no lightmap UVs to rasterise (run ensure_lightmap_uvs first)")
     if not (int(width) == width > 0 and int(height) == height > 0):

@@ -156,7 +156,7 @@ def _edge_codes(keys):
 
 def _keep_texcoord1(scene, texels_per_unit, resolution):
     uv1 = scene.uv1
-    where = scene.source or scene.name
+    where = scene.label
     if uv1.ndim != 2 or uv1.shape != (len(scene.positions), 2):
         raise PatchlightError(f"{where}: TEXCOORD_1 has shape {uv1.shape}, expected ({len(scene.positions)}, 2)")
     if not np.all(np.isfinite(uv1)):
@@ -242,7 +242,7 @@ def pack_planar_charts(scene: Scene, texels_per_unit: float, resolution: int | N
     positions = np.asarray(scene.positions, np.float64)
     normal, area = face_normals(scene.positions, scene.indices)
     if float(area.astype(np.float64).sum()) <= 0.0:
-        raise PatchlightError(f"{scene.source or scene.name}: no triangle has any area to lightmap")
+        raise PatchlightError(f"{scene.label}: no triangle has any area to lightmap")
     chart, charts = _planar_charts(positions, scene.indices, normal.astype(np.float64))
     order = np.argsort(chart, kind="stable")
     start = np.searchsorted(chart[order], np.arange(charts + 1))
@@ -318,7 +318,7 @@ def _fit_density(extent, world_area, resolution, padding, scene):
         else:
             hi = density
     if lo is None or hi is None:
-        raise PatchlightError(f"{scene.source or scene.name}: {len(extent)} charts with {padding} texels of "
+        raise PatchlightError(f"{scene.label}: {len(extent)} charts with {padding} texels of "
                               f"padding do not fit in {resolution}x{resolution}; raise --resolution")
     for _ in range(12):  # refine between lo and 2 lo
         middle = 0.5 * (lo + hi)
@@ -374,7 +374,7 @@ def _check_options(texels_per_unit, resolution, padding):
 
 def _check_size(width, height, scene):
     if width * height > MAX_TEXELS or max(width, height) > 2 * MAX_SIZE:
-        raise PatchlightError(f"{scene.source or scene.name}: the lightmap would be {width}x{height} texels "
+        raise PatchlightError(f"{scene.label}: the lightmap would be {width}x{height} texels "
                               f"(limit {MAX_SIZE}x{MAX_SIZE}); lower --texels-per-unit or set --resolution")
 
 
@@ -383,7 +383,7 @@ def _check_density(scene, texels_per_unit):
     world_area = float(face_normals(scene.positions, scene.indices)[1].astype(np.float64).sum())
     needed = world_area * texels_per_unit ** 2
     if needed > MAX_TEXELS:
-        raise PatchlightError(f"{scene.source or scene.name}: {world_area:.4g} m^2 at {texels_per_unit:g} texels per "
+        raise PatchlightError(f"{scene.label}: {world_area:.4g} m^2 at {texels_per_unit:g} texels per "
                               f"metre needs {needed:.3g} texels (limit {MAX_TEXELS}); lower --texels-per-unit "
                               f"or set --resolution")
 

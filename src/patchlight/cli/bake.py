@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..config import BakeSettings
+from ..config import FALLOFFS, GATHERS, BakeSettings
 from ..errors import PatchlightError
 
 DEFAULTS = BakeSettings()
@@ -30,7 +30,7 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
     sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
                      help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
     sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
-    p.add_argument("--falloff", choices=("inverse-square", "range"), default=DEFAULTS.falloff,
+    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff,
                    help="point/spot falloff for lights that name none (default %(default)s)")
     p.add_argument("--sun-angle", type=float, metavar="DEG", help="sun's angular diameter, soft shadows")
 
@@ -48,7 +48,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     size = p.add_mutually_exclusive_group()
     size.add_argument("--resolution", type=int, metavar="N", help="lightmap width = height in texels (16..8192)")
     size.add_argument("--texels-per-unit", type=float, default=DEFAULTS.texels_per_unit, metavar="T")
-    p.add_argument("--gather", choices=("stratified", "hemicube"), default=DEFAULTS.gather)
+    p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather)
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
     p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
@@ -66,27 +66,21 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
 
 
 def settings_from_args(args) -> BakeSettings:
-    checks = [(args.passes >= 1, "--passes must be at least 1"),
-              (0 < args.accuracy < 1, "--accuracy must lie between 0 and 1"),
-              (args.tolerance > 0, "--tolerance must be positive"),
-              (args.rays >= 1, "--rays must be at least 1"),
-              (args.hemicube_size >= 2 and args.hemicube_size % 2 == 0, "--hemicube-size must be even and >= 2"),
-              (args.texels_per_unit > 0, "--texels-per-unit must be positive")]
-    for ok, message in checks:
-        if not ok:
-            raise PatchlightError(message)
+    """BakeSettings from the flags, checked (BakeSettings.validate) before any work."""
     exposure = args.exposure
     if exposure != "auto":
         try:
             exposure = float(exposure)
         except ValueError:
             raise PatchlightError(f"--exposure must be a number or auto, got {exposure!r}") from None
-    return BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
-                        gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
-                        passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
-                        accuracy=args.accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
-                        exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
-                        save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
+    settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
+                            gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
+                            passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
+                            accuracy=args.accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
+                            exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
+                            save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
+    settings.validate()
+    return settings
 
 
 def sky_from_args(args):

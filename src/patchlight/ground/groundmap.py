@@ -116,7 +116,7 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     warnings: list[str] = []
     lo, hi = scene.bounds()
     area = settings.area or square_area(lo, hi)
-    where = f"--area {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.source or scene.name
+    where = f"--area {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.label
 
     clock = time.perf_counter()
     geometry = prepare_map_geometry(scene, settings.max_height)
@@ -138,7 +138,7 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     sun = the_sun(scene.lights)
     excident = picture.excident
     if sun is None:
-        warnings.append(f"{scene.source or scene.name}: no sun (directional light), so no static shadows")
+        warnings.append(f"{scene.label}: no sun (directional light), so no static shadows")
         unshadowed = excident
         sun_info = None
     else:

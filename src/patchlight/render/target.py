@@ -33,12 +33,12 @@ class Target:
     def from_scene(cls, scene: Scene, lightmap: np.ndarray | None = None, bake_dir: Path | None = None) -> "Target":
         scene.validate()
         if lightmap is not None and scene.uv1 is None:
-            raise PatchlightError(f"{scene.source or scene.name}: a lightmap needs lightmap UVs (TEXCOORD_1)")
+            raise PatchlightError(f"{scene.label}: a lightmap needs lightmap UVs (TEXCOORD_1)")
         return cls(scene, SurfaceArrays.from_scene(scene), lightmap, bake_dir)
 
     @property
     def name(self) -> str:
-        return str(self.bake_dir) if self.bake_dir else (self.scene.source or self.scene.name)
+        return str(self.bake_dir) if self.bake_dir else self.scene.label
 
     def bake_pictures(self) -> list[str]:
         """File names of the bake's lightmap-space pictures, lightmap first, then passes, adaptive."""

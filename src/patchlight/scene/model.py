@@ -93,6 +93,11 @@ class Scene:
     extras: dict = field(default_factory=dict)
 
     @property
+    def label(self) -> str:
+        """How messages name the scene: its file, else its name."""
+        return self.source or self.name
+
+    @property
     def n_triangles(self) -> int:
         return int(self.indices.shape[0])
 
@@ -115,11 +120,11 @@ class Scene:
         """Refuse NaN or infinite positions and out-of-range indices with one clear line."""
         if not np.all(np.isfinite(self.positions)):
             bad = int(np.count_nonzero(~np.isfinite(self.positions).all(axis=1)))
-            raise PatchlightError(f"{self.source or self.name}: {bad} vertex positions are NaN or infinite")
+            raise PatchlightError(f"{self.label}: {bad} vertex positions are NaN or infinite")
         if self.indices.size and (self.indices.min() < 0 or self.indices.max() >= len(self.positions)):
-            raise PatchlightError(f"{self.source or self.name}: triangle indices point outside the vertex array")
+            raise PatchlightError(f"{self.label}: triangle indices point outside the vertex array")
         if self.n_triangles == 0:
-            raise PatchlightError(f"{self.source or self.name}: no triangles to light")
+            raise PatchlightError(f"{self.label}: no triangles to light")
 
 
 def face_normals(positions: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

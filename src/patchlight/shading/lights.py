@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import FALLOFFS  # in the order of GLSL's FALLOFF_INVERSE_SQUARE, FALLOFF_RANGE
 from ..errors import PatchlightError
 from .terms import dot, normalize, saturate
 
 LIGHT_KINDS = ("directional", "point", "spot")  # GLSL LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
-FALLOFFS = ("inverse-square", "range")  # GLSL FALLOFF_INVERSE_SQUARE, FALLOFF_RANGE
 MAX_LIGHTS = 8  # GLSL MAX_LIGHTS: the most lights one viewer draw takes
 
 
