@@ -232,40 +232,27 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
 
 def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
     """Write lightmap.exr, lightmap.png, adaptive.png, scene.glb, bake.json (and the pass
-    pictures), each to a temporary name then renamed; returns {name: path}."""
-    import io
-
-    from PIL import Image
-
+    pictures) into out_dir as one set (`staged_output`: bake.json, written last, marks it
+    complete); returns the summary that bake.json holds."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import write_exr, write_png
+    from .imaging.io import encode_png, staged_output, write_bytes, write_exr, write_png
     from .scene.gltf import save_baked_glb
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
-    files = {}
-    write_exr(out_dir / "lightmap.exr", result.lightmap)
-    files["lightmap.exr"] = out_dir / "lightmap.exr"
-    for name, pixels in [("lightmap.png", exposed_png_pixels(result.lightmap, k)),
-                         ("adaptive.png", adaptive.debug_image(result.patches, result.status))]:
-        write_png(out_dir / name, pixels)
-        files[name] = out_dir / name
-    for i, image in enumerate(result.pass_images, start=1):
-        write_png(out_dir / f"pass_{i:02d}.png", exposed_png_pixels(image, k))
-        files[f"pass_{i:02d}.png"] = out_dir / f"pass_{i:02d}.png"
+    pictures = {"lightmap.png": exposed_png_pixels(result.lightmap, k),
+                "adaptive.png": adaptive.debug_image(result.patches, result.status)}
+    pictures.update({f"pass_{i:02d}.png": exposed_png_pixels(image, k)
+                     for i, image in enumerate(result.pass_images, start=1)})
     value_range = float(max(1.0, result.lightmap.max()))
-    buf = io.BytesIO()
-    Image.fromarray(rgbm_encode(result.lightmap, value_range), "RGBA").save(buf, format="PNG")
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
-    save_baked_glb(result.scene, out_dir / "scene.glb", buf.getvalue(), meta)
-    files["scene.glb"] = out_dir / "scene.glb"
+    names = sorted(["lightmap.exr", "scene.glb", "bake.json", *pictures])
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
-               **result.stats, "files": sorted([*files, "bake.json"])}
-    from .imaging.io import atomic_path
-
-    with atomic_path(out_dir / "bake.json") as tmp:
-        Path(tmp).write_text(json.dumps(summary, indent=2, default=float))
-    files["bake.json"] = out_dir / "bake.json"
+               **result.stats, "files": names}
+    with staged_output(out_dir, last="bake.json", stale=("pass_*.png",)) as staging:
+        write_exr(staging / "lightmap.exr", result.lightmap)
+        for name, pixels in pictures.items():
+            write_png(staging / name, pixels)
+        save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta)
+        write_bytes(staging / "bake.json", json.dumps(summary, indent=2, default=float).encode())
     return summary

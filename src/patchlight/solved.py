@@ -72,8 +72,9 @@ def _at_hits(attribute: np.ndarray, indices: np.ndarray, tri, u, v) -> np.ndarra
 
 
 def is_bake_dir(path: str | Path) -> bool:
+    """A complete bake: scene.glb and lightmap.exr, and bake.json, which is written last."""
     p = Path(path)
-    return p.is_dir() and (p / "scene.glb").exists() and (p / "lightmap.exr").exists()
+    return p.is_dir() and all((p / name).exists() for name in ("scene.glb", "lightmap.exr", "bake.json"))
 
 
 def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None, quiet: bool = True) -> SolvedScene:
@@ -91,7 +92,7 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
             raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
         return SolvedScene(scene, lightmap, str(spec))
     if Path(spec).is_dir():
-        raise PatchlightError(f"{spec}: a directory without scene.glb and lightmap.exr is not a bake")
+        raise PatchlightError(f"{spec}: not a complete bake (needs scene.glb, lightmap.exr and bake.json)")
     from .bake import bake
 
     scene = load_scene(spec)

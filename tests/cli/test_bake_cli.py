@@ -191,3 +191,48 @@ def test_sky_image_lights_an_open_plane_with_its_radiance(tmp_path, capsys):
     lightmap = read_exr(tmp_path / "out" / "lightmap.exr")
     lit = lightmap[lightmap.sum(axis=2) > 0]
     np.testing.assert_allclose(lit, np.broadcast_to([0.5, 1.0, 2.0], lit.shape), rtol=1e-5)
+
+
+def test_ctrl_c_while_writing_leaves_the_older_bake_whole(tmp_path, capsys, monkeypatch):
+    import patchlight.imaging.io as io
+
+    out = tmp_path / "out"
+    assert run(capsys, "bake", "cornell", "-o", str(out), "--resolution", "32", "--quiet")[0] == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    real = io.write_png
+
+    def interrupted(path, pixels):
+        real(path, pixels)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(io, "write_png", interrupted)
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(out), "--resolution", "48", "--quiet")
+    assert status == 130 and "interrupted" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no staging directory left behind
+
+
+def test_a_rebake_replaces_the_whole_set_of_files(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert run(capsys, "bake", "cornell", "-o", str(out), "--resolution", "32", "--save-passes", "--passes", "3",
+               "--quiet")[0] == 0
+    assert (out / "pass_03.png").exists()
+    assert run(capsys, "bake", "cornell", "-o", str(out), "--resolution", "32", "--save-passes", "--passes", "2",
+               "--quiet")[0] == 0
+    assert sorted(p.name for p in out.glob("pass_*.png")) == ["pass_01.png", "pass_02.png"]
+    assert json.loads((out / "bake.json").read_text())["passes"] == 2
+
+
+@pytest.mark.parametrize("where", ["file", "file/below"])
+def test_an_output_directory_that_cannot_be_made_is_refused_before_baking(tmp_path, capsys, where):
+    (tmp_path / "file").write_text("in the way")
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / where), "--resolution", "32", "--quiet")
+    assert status == 2 and "not a directory" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("argv, words", [(["--exposure", "nan"], "exposure"), (["--exposure", "0"], "exposure"),
+                                         (["--seed", "-1"], "seed"), (["--sun-angle", "-5"], "sun angle")])
+def test_out_of_range_settings_are_refused_in_one_line(tmp_path, capsys, argv, words):
+    status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), *argv)
+    assert status == 2 and words in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()

@@ -112,7 +112,10 @@ def load_lit_scene(args):
 def run(args) -> int:
     from ..bake import bake, write_bake
 
+    from ..imaging.io import check_output_dir
+
     settings = settings_from_args(args)
+    check_output_dir(args.output)
     scene = load_lit_scene(args)
     result = bake(scene, settings, quiet=args.quiet or args.json)
     summary = write_bake(result, args.output, settings)
@@ -124,7 +127,7 @@ def run(args) -> int:
         print(f"baked {s['patches']} patches ({s['computed_patches']} computed, "
               f"{s['interpolated_patches']} interpolated) in {s['seconds_total']:.1f} s, "
               f"{s['passes']} passes, {s['rays_per_second'] / 1e6:.2f} Mrays/s")
-        print(f"results in {args.output}/: lightmap.exr lightmap.png scene.glb bake.json adaptive.png")
+        print(f"results in {args.output}/: {' '.join(s['files'])}")
     for warning in summary.get("warnings", []):
         print(f"patchlight: warning: {warning}", file=sys.stderr)
     return 0

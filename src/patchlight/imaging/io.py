@@ -59,6 +59,57 @@ def atomic_path(path) -> Iterator[Path]:
         raise
 
 
+def check_output_dir(path) -> Path:
+    """`path` as an output directory that can be made: PatchlightError, before any work, when
+    a file stands in its way or its nearest existing ancestor is not writable."""
+    path = Path(path)
+    ancestor = path
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise PatchlightError(f"{path}: {ancestor} is a file, not a directory")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise PatchlightError(f"{path}: cannot write in {ancestor}")
+    return path
+
+
+@contextmanager
+def staged_output(out_dir, last: str, stale: tuple[str, ...] = ()) -> Iterator[Path]:
+    """Yield a staging directory for a set of files that belong together (a bake).
+
+    On success they move into `out_dir` (made if need be), each rename atomic: `last` (the
+    file that marks the set complete, e.g. bake.json) is removed first and moved in last, and
+    files of an older set matching the `stale` globs are removed, so a reader never meets a
+    complete-looking mixture of two sets. If the body raises (Ctrl-C included), the staging
+    directory goes and `out_dir` is untouched.
+    """
+    out = check_output_dir(out_dir)
+    nearest = out.parent
+    while not nearest.exists():
+        nearest = nearest.parent
+    staging = nearest / f".{out.name}.partial-{os.getpid()}-{secrets.token_hex(4)}"
+    try:
+        staging.mkdir()
+        yield staging
+        out.mkdir(parents=True, exist_ok=True)
+        (out / last).unlink(missing_ok=True)
+        for pattern in stale:
+            for old in out.glob(pattern):
+                if not (staging / old.name).exists():
+                    old.unlink()
+        for item in sorted(staging.iterdir()):
+            if item.name != last:
+                os.replace(item, out / item.name)
+        os.replace(staging / last, out / last)
+    except OSError as exc:
+        raise PatchlightError(f"{out}: cannot write ({exc.strerror or exc})") from exc
+    finally:
+        for item in staging.glob("*"):
+            item.unlink()
+        if staging.exists():
+            staging.rmdir()
+
+
 def write_bytes(path, data: bytes) -> None:
     """Write `data` to `path` atomically."""
     with atomic_path(path) as tmp:
