@@ -154,7 +154,7 @@ def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
     from .atlas.raster import rasterize
-    from .atlas.uvs import check_bake_memory, ensure_lightmap_uvs
+    from .atlas.uvs import available_memory, check_bake_memory, ensure_lightmap_uvs
 
     settings = settings or BakeSettings()
     settings.validate()
@@ -185,11 +185,13 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             from .radiosity.cluster import RayCluster
 
             gatherer.cluster = RayCluster(settings.ray)
-        keep = estimate_matrix_bytes(len(patches), gatherer.rays_per_patch) <= settings.max_memory
+        budget = min(settings.max_memory, available_memory() or settings.max_memory)
+        keep = estimate_matrix_bytes(len(patches), gatherer.rays_per_patch) <= budget
         ff = FormFactors(gatherer, keep)
         gather_start = time.perf_counter()
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
+        rays_in_gather = ff.rays + ff.rays_regathered  # what the gather stage traced
         pass_images = []
         with progress.stage("passes", total=settings.passes) as advance:
             def on_pass(k, change, incident):
@@ -213,10 +215,11 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "inside_geometry_patches": int(counts[adaptive.INSIDE]),
         "gather": settings.gather,
         "rays_per_patch": gatherer.rays_per_patch,
-        "rays_traced": rays_direct + ff.rays,
+        "rays_traced": rays_direct + ff.rays + ff.rays_regathered,
         "rays_direct": rays_direct,
         "rays_gather": ff.rays,
-        "rays_per_second": ff.rays / max(gather_seconds, 1e-9),
+        "rays_regather": ff.rays_regathered,
+        "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
         "form_factor_matrix": {"kept": keep, "nonzeros": ff.nnz, "bytes": ff.nbytes},
         "passes": len(solution.changes),

@@ -111,7 +111,7 @@ def check_bake_memory(width: int, height: int, available_bytes: int | None = Non
                       form_factor_entries: int = FORM_FACTOR_ENTRIES) -> None:
     """Refuse (PatchlightError) a lightmap whose estimated bake memory exceeds what is available."""
     needed = estimate_bake_bytes(width, height, form_factor_entries)
-    available = _available_memory() if available_bytes is None else int(available_bytes)
+    available = available_memory() if available_bytes is None else int(available_bytes)
     if available > 0 and needed > available:
         side = int(math.sqrt(available / needed) * min(width, height)) // 4 * 4
         raise PatchlightError(
@@ -392,7 +392,7 @@ def _round_up4(value):
     return int(math.ceil(value / 4.0)) * 4
 
 
-def _available_memory():
+def available_memory() -> int:
     """Bytes of memory available now (Linux MemAvailable, else free pages; 0 when unknown)."""
     try:
         with open("/proc/meminfo") as meminfo:

@@ -38,12 +38,14 @@ class RayCluster:
                 raise PatchlightError(f"--ray {address}: cannot join the Ray cluster ({exc})") from None
         self._task = ray.remote(_run_chunk)
         self._token = uuid.uuid4().hex
+        self._shipped = None  # (gatherer, its object-store reference): shipped once per bake
 
     def gather(self, gatherer, chunks, progress=None) -> list:
         """GatherRows of every chunk, in order."""
         ray = self._ray
-        ref = ray.put(gatherer)
-        futures = [self._task.remote(self._token, ref, rows) for rows in chunks]
+        if self._shipped is None or self._shipped[0] is not gatherer:
+            self._shipped = (gatherer, ray.put(gatherer))
+        futures = [self._task.remote(self._token, self._shipped[1], rows) for rows in chunks]
         pending, done = list(futures), {}
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)

@@ -27,7 +27,8 @@ class FormFactors:
     blocks: list = field(default_factory=list)
     back_fraction: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
     lost_rays: int = 0
-    rays: int = 0  # gather rays traced, here or on a cluster
+    rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
+    rays_regathered: int = 0  # and again for every product when F is not kept
 
     def add(self, rows: np.ndarray, progress=None) -> np.ndarray:
         """Gather patches `rows`; returns their share of rays that hit back faces."""
@@ -45,7 +46,7 @@ class FormFactors:
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
         if not self.keep:
-            self.rays += len(self.ids) * self.gatherer.rays_per_patch
+            self.rays_regathered += len(self.ids) * self.gatherer.rays_per_patch
         matrices = self.blocks if self.keep else (self.gatherer.gather(rows).F for rows in self.blocks)
         B = np.ascontiguousarray(B, np.float32)
         return np.concatenate([_kernels.csr_times_rgb(F.indptr, F.indices, F.data, B) for F in matrices])
