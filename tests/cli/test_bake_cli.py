@@ -58,15 +58,17 @@ def test_texcoord1_survives_the_bake_bit_exact(tmp_path, capsys):
 
 
 def test_lightmap_orientation_puts_the_lit_texel_where_the_uvs_say(tmp_path, capsys):
-    # uv1 = ((x + 1) / 2, (z + 1) / 2): the lamp over (x, z) = (0.8, 0.8) is near uv (0.9, 0.9),
-    # which is row 0.9 H (v = 0 is the top row), column 0.9 W.
+    # uv1 = ((x + 1) / 2, (z + 1) / 2): the lamp over (x, z) = (0.8, -0.4) is near uv (0.9, 0.3),
+    # which is row 0.3 H = 12 (v = 0 is the top row), column 0.9 W = 36: a transposed or
+    # flipped lightmap puts it elsewhere.
     uv1 = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
-    save_baked_glb(lit_quad(uv1), tmp_path / "in.glb")
+    lamp = Light("point", np.ones(3, np.float32), 4.0, position=np.array([0.8, 0.3, -0.4], np.float32))
+    save_baked_glb(lit_quad(uv1, lamp), tmp_path / "in.glb")
     status, _, _ = run(capsys, "bake", str(tmp_path / "in.glb"), "-o", str(tmp_path / "out"), "--resolution", "40", "--quiet")
     assert status == 0
     lightmap = read_exr(tmp_path / "out" / "lightmap.exr")[..., 0]
     row, col = np.unravel_index(np.argmax(lightmap), lightmap.shape)
-    assert abs(row - 36) <= 1 and abs(col - 36) <= 1
+    assert abs(row - 12) <= 1 and abs(col - 36) <= 1
 
 
 def _write(path, data: bytes):
