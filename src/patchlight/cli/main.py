@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import BakeInterrupted, PatchlightError
+from ..errors import PatchlightError
 
 SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake")
 
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     except PatchlightError as exc:
         print(f"patchlight: error: {exc}", file=sys.stderr)
         return 2
-    except (KeyboardInterrupt, BakeInterrupted):
+    except KeyboardInterrupt:
         print("patchlight: interrupted; nothing partial was written", file=sys.stderr)
         return 130
 

@@ -10,6 +10,7 @@ import numpy as np
 # The two segments meet at encoded 0.04045 == linear 0.0031308 (to the standard's rounding).
 _SRGB_KNEE = 0.04045
 _LINEAR_KNEE = 0.0031308
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB weights of linear R, G, B
 
 
 def _float_array(a) -> np.ndarray:

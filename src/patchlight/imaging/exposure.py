@@ -3,13 +3,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from .color import LUMINANCE, linear_to_srgb
+
 AUTO_PERCENTILE = 90.0  # auto exposure puts this percentile of the lit values ...
 AUTO_TARGET = 0.8       # ... at this display value
 
 
 def auto_exposure(values: np.ndarray) -> float:
     """k such that the 90th percentile of the positive luminances maps to 0.8."""
-    lum = np.asarray(values, np.float64).reshape(-1, 3) @ np.array([0.2126, 0.7152, 0.0722])
+    lum = np.asarray(values, np.float64).reshape(-1, 3) @ LUMINANCE
     lit = lum[lum > 0]
     if lit.size == 0:
         return 1.0
@@ -21,16 +23,9 @@ def expose(values: np.ndarray, k: float) -> np.ndarray:
     return 1.0 - np.exp(-k * np.maximum(np.asarray(values, np.float64), 0.0))
 
 
-def to_srgb8(display: np.ndarray) -> np.ndarray:
-    """uint8 sRGB encoding of linear display values in [0, 1]."""
-    x = np.clip(display, 0.0, 1.0)
-    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return np.round(srgb * 255).astype(np.uint8)
-
-
 def exposed_png_pixels(values: np.ndarray, k: float) -> np.ndarray:
     """(H, W, 3) uint8 sRGB picture of linear values exposed with k."""
-    return to_srgb8(expose(values, k))
+    return np.round(linear_to_srgb(expose(values, k)) * 255).astype(np.uint8)
 
 
 def rgbm_encode(values: np.ndarray, value_range: float) -> np.ndarray:

@@ -25,7 +25,6 @@ class FormFactors:
     ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     S: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
     blocks: list = field(default_factory=list)
-    back_fraction: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
     lost_rays: int = 0
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
     rays_regathered: int = 0  # and again for every product when F is not kept
@@ -36,7 +35,6 @@ class FormFactors:
         self.rays += len(rows) * self.gatherer.rays_per_patch
         self.ids = np.concatenate([self.ids, rows])
         self.S = np.concatenate([self.S, g.S])
-        self.back_fraction = np.concatenate([self.back_fraction, g.back_fraction])
         self.blocks.append(g.F if self.keep else rows)
         self.lost_rays += g.lost
         return g.back_fraction
