@@ -71,31 +71,6 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
     return np.maximum(0.05 * patches.size, floor).astype(np.float32)
 
 
-def texel_points(scene: Scene, patches: Patches, n: int) -> np.ndarray:
-    """(N, n*n, 3) points spread over each texel's footprint on its triangle (an n x n grid
-    of sub-texel centres), for direct light without staircase shadow edges. A point that
-    falls off the triangle is replaced by the patch's own position, which lies on it."""
-    if n <= 1:
-        return patches.position[:, None, :].astype(np.float64)
-    corners_uv = scene.uv1[scene.indices[patches.triangle]] * np.array([patches.width, patches.height])
-    corners = scene.positions[scene.indices[patches.triangle]].astype(np.float64)  # (N, 3, 3)
-    sub = (np.arange(n) + 0.5) / n
-    sx, sy = np.meshgrid(sub, sub, indexing="ij")
-    px = patches.texel_x[:, None] + sx.ravel()[None]                              # (N, n*n)
-    py = patches.texel_y[:, None] + sy.ravel()[None]
-    a, b, c = (corners_uv[:, i][:, None, :] for i in range(3))
-    e1, e2 = b - a, c - a
-    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
-    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
-    dx, dy = px - a[..., 0], py - a[..., 1]
-    w1 = (dx * e2[..., 1] - dy * e2[..., 0]) / safe
-    w2 = (e1[..., 0] * dy - e1[..., 1] * dx) / safe
-    w0 = 1.0 - w1 - w2
-    points = w0[..., None] * corners[:, None, 0] + w1[..., None] * corners[:, None, 1] + w2[..., None] * corners[:, None, 2]
-    off = (w0 < 0) | (w1 < 0) | (w2 < 0) | (np.abs(det) <= 1e-12)
-    return np.where(off[..., None], patches.position[:, None, :], points)
-
-
 def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
                      progress: Progress):
     """Run the adaptive sampler; returns (status, order): the sampler's interpolation order."""
@@ -153,7 +128,7 @@ def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray
 
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
-    from .atlas.raster import rasterize
+    from .atlas.raster import rasterize, texel_points
     from .atlas.uvs import available_memory, check_bake_memory, ensure_lightmap_uvs
 
     settings = settings or BakeSettings()

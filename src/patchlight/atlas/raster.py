@@ -106,3 +106,28 @@ def _texel_size(tex, world_area):
     world = world_area.astype(np.float64)
     size = np.sqrt(np.divide(world, texel_area, out=world.copy(), where=texel_area > 1e-12))
     return size.astype(np.float32)
+
+
+def texel_points(scene: Scene, patches: Patches, n: int) -> np.ndarray:
+    """(N, n*n, 3) points spread over each texel's footprint on its triangle (an n x n grid
+    of sub-texel centres), for direct light without staircase shadow edges. A point that
+    falls off the triangle is replaced by the patch's own position, which lies on it."""
+    if n <= 1:
+        return patches.position[:, None, :].astype(np.float64)
+    corners_uv = scene.uv1[scene.indices[patches.triangle]] * np.array([patches.width, patches.height])
+    corners = scene.positions[scene.indices[patches.triangle]].astype(np.float64)  # (N, 3, 3)
+    sub = (np.arange(n) + 0.5) / n
+    sx, sy = np.meshgrid(sub, sub, indexing="ij")
+    px = patches.texel_x[:, None] + sx.ravel()[None]                              # (N, n*n)
+    py = patches.texel_y[:, None] + sy.ravel()[None]
+    a, b, c = (corners_uv[:, i][:, None, :] for i in range(3))
+    e1, e2 = b - a, c - a
+    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
+    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
+    dx, dy = px - a[..., 0], py - a[..., 1]
+    w1 = (dx * e2[..., 1] - dy * e2[..., 0]) / safe
+    w2 = (e1[..., 0] * dy - e1[..., 1] * dx) / safe
+    w0 = 1.0 - w1 - w2
+    points = w0[..., None] * corners[:, None, 0] + w1[..., None] * corners[:, None, 1] + w2[..., None] * corners[:, None, 2]
+    off = (w0 < 0) | (w1 < 0) | (w2 < 0) | (np.abs(det) <= 1e-12)
+    return np.where(off[..., None], patches.position[:, None, :], points)
