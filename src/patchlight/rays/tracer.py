@@ -7,6 +7,7 @@ every ray at t = 0: callers offset their origins off the surface themselves.
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -48,6 +49,11 @@ class Tracer:
         self._scene = None
         self._pool = None
         self.rays_traced = 0
+        self._count_lock = threading.Lock()  # chunks finish on several threads
+
+    def _count(self, n: int) -> None:
+        with self._count_lock:
+            self.rays_traced += n
 
     def __reduce__(self):
         """Pickles as its triangles; the BVH is rebuilt where it is first used (a Ray worker)."""
@@ -80,7 +86,7 @@ class Tracer:
         """Closest hit of each ray, traced on the calling thread (see `intersect`)."""
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(directions, np.float32)
-        self.rays_traced += len(o)
+        self._count(len(o))
         r = self._ready().run(o, d, output=1)
         tri = r["primID"].astype(np.int32, copy=False)
         front = (np.einsum("ij,ij->i", r["Ng"], d) < 0) & (tri >= 0)
@@ -102,7 +108,7 @@ class Tracer:
         far = np.ascontiguousarray(np.broadcast_to(np.asarray(tmax, np.float32), (len(o),)))
 
         def run(oc, dc, fc):
-            self.rays_traced += len(oc)
+            self._count(len(oc))
             return self._scene.run(oc, dc, dists=fc.copy(), query="OCCLUDED") >= 0
 
         parts = self._map(run, len(o), o, d, far)
