@@ -3,7 +3,8 @@
 The track is baked once (2 texels per metre, not timed); then each encoding's ground map is
 made and written, and the seconds per stage are printed: prepare (polygons left out and
 turned up), look down (one ray per texel and the bake's light at each hit), shadows (a ray
-to the sun per texel), encode (noise, shadow amount, encoding) and write (PNG, DDS, json).
+to the sun per texel), encode (noise, shadow amount, encoding) and write (the map as PNG
+and DDS, the other two encodings as PNG for the viewer, json).
 Run by hand: `.venv/bin/python bench/bench_groundmap.py [--size N] [--bake DIR]`.
 """
 from __future__ import annotations

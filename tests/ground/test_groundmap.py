@@ -10,9 +10,10 @@ from ground_scenes import GREY, I0, SKY, SUN_ES, fence, ground, patches, pole, s
 
 from patchlight.errors import PatchlightError
 from patchlight.ground.encode import rgb_to_hsv
-from patchlight.ground.files import decode_dds, load_ground_map, read_map_pixels
+from patchlight.ground.files import block_compressed, decode_dds, load_ground_map, read_map_pixels, to_bytes
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
 from patchlight.ground.mapping import GroundArea, map_uv
+from patchlight.ground.viewer import open_ground_map_dir
 from patchlight.scene.builtin import SceneBuilder
 from patchlight.shading.environment import sky_incident
 from patchlight.shading.hemisphere_radiosity import radiosity_ground, radiosity_sky
@@ -188,8 +189,10 @@ def test_files_and_manifest(tmp_path, encoding, block):
     b, lights = level()
     gm = bake(b, lights, shadows=encoding, size=64)
     manifest = write_groundmap(gm, tmp_path, "test", "../bake")
+    others = [e for e in ("separate", "alpha", "hsv") if e != encoding]
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        ["groundmap.json", "groundmap.png", "groundmap.dds"] + (["shadow.png", "shadow.dds"] if encoding == "separate" else []))
+        ["groundmap.json", "groundmap.png", "groundmap.dds"] + (["shadow.png", "shadow.dds"] if encoding == "separate" else [])
+        + [f"variant_{e}.png" for e in others] + (["variant_separate_shadow.png"] if "separate" in others else []))
     on_disk = json.loads((tmp_path / "groundmap.json").read_text())
     assert on_disk["encoding"] == encoding and on_disk["files"]["color"]["dds_format"] == block
     assert on_disk["mapping"]["U"] == pytest.approx([1 / 20, 0, 0, 0.5]) and on_disk["area"] == [-10, -10, 10, 10]
@@ -202,6 +205,49 @@ def test_files_and_manifest(tmp_path, encoding, block):
     inputs = load_ground_map(tmp_path)
     assert inputs.encoding == encoding and inputs.map_scale == pytest.approx(manifest["map_scale"])
     assert np.array_equal(inputs.texture[..., :png.shape[-1]], png)
+
+
+def test_reopening_a_ground_map_directory_gives_exactly_the_written_map(tmp_path):
+    """The viewer reads every variant from the files: the map's own PNG and DDS texels, and the
+    other encodings' texels exactly as their encoder made them, with their constants."""
+    b, lights = level()
+    gm = bake(b, lights, shadows="separate", size=32, noise=0.1)
+    manifest = write_groundmap(gm, tmp_path, "test", None)
+    _, inputs = open_ground_map_dir(tmp_path)
+    assert sorted(inputs.variants) == sorted(f"{e}-{k}" for e in ("separate", "alpha", "hsv") for k in ("png", "dds"))
+    for name, (texels, shadow, scale, sky_scale) in inputs.variants.items():
+        encoding, kind = name.split("-")
+        e = gm.encode(encoding)
+        written = to_bytes(e.color)
+        if kind == "dds":
+            written = block_compressed(written)
+        assert np.array_equal(texels[..., :written.shape[-1]], written), name
+        assert (shadow is None) == (e.shadow is None)
+        if shadow is not None:
+            grey = to_bytes(np.repeat(e.shadow[..., None], 3, -1))
+            assert np.array_equal(shadow[..., :3], block_compressed(grey)[..., :3] if kind == "dds" else grey)
+        assert scale == pytest.approx(e.map_scale) and np.allclose(sky_scale, e.sky_scale)
+    assert np.array_equal(inputs.texture, load_ground_map(tmp_path).texture)
+    assert np.array_equal(inputs.texture * 255, inputs.variants["separate-png"][0].astype(np.float32))
+    assert inputs.map_scale == manifest["map_scale"] and np.allclose(inputs.sky_scale, manifest["sky_scale"])
+    assert np.allclose(inputs.path, gm.path) and np.allclose(inputs.fog_color, gm.sky_light)
+
+
+def test_the_cars_loop_lies_on_the_ground_when_the_scene_names_none():
+    b, lights = level()
+    gm = bake(b, lights, size=16)
+    assert gm.path.shape == (96, 3) and np.allclose(gm.path[:, 1], 0.0)
+    assert np.allclose(gm.path[:, [0, 2]].mean(axis=0), 0.0, atol=1e-6) and np.ptp(gm.path[:, 0]) == pytest.approx(12.0)
+
+
+def test_a_second_map_in_the_same_directory_leaves_none_of_the_first_behind(tmp_path):
+    b, lights = level()
+    write_groundmap(bake(b, lights, shadows="hsv", size=16), tmp_path, "test", None)
+    before = {p.name for p in tmp_path.iterdir()}
+    write_groundmap(bake(b, lights, shadows="separate", size=16), tmp_path, "test", None)
+    after = {p.name for p in tmp_path.iterdir()}
+    assert "variant_separate.png" in before and "variant_separate.png" not in after
+    assert {"shadow.png", "variant_hsv.png"} <= after and not [n for n in after if n.startswith(".")]
 
 
 # ------------------------------------------------------------------ bad input

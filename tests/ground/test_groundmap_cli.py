@@ -2,10 +2,16 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from patchlight.cli.main import main
+from patchlight.ground.files import load_ground_map
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap
+from patchlight.ground.viewer import view_target
+from patchlight.solved import load_solved
 
 
 @pytest.fixture(scope="module")
@@ -37,6 +43,20 @@ def test_a_bake_directory_is_read_and_named_relative_to_the_output(baked, tmp_pa
     assert captured.err.count("warning") == 1 and "no sun" in captured.err
     manifest = json.loads((out / "groundmap.json").read_text())
     assert (out / manifest["bake"]).resolve() == bake_dir.resolve()
+
+
+def test_view_opens_the_map_written_with_its_own_sky(baked, tmp_path, capsys):
+    """A --sky given to groundmap (not the bake's sky) stays in the map the viewer opens."""
+    _, bake_dir = baked
+    out = tmp_path / "map"
+    assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--quiet", "--sky", "3,3,3"]) == 0
+    manifest = json.loads((out / "groundmap.json").read_text())
+    shown, inputs = view_target(str(out))
+    assert Path(shown) == bake_dir.resolve()
+    assert np.array_equal(inputs.sky_scale, np.float32(manifest["sky_scale"]))
+    assert np.array_equal(inputs.texture, load_ground_map(out).texture)
+    remade = make_groundmap(load_solved(bake_dir), GroundMapSettings(size=16, shadows=manifest["encoding"]))
+    assert not np.allclose(remade.encoded.sky_scale, manifest["sky_scale"])  # the bake's own sky differs
 
 
 @pytest.mark.parametrize("args, message", [

@@ -19,9 +19,9 @@ from browser_support import DRIVER, browser_missing, node_env  # noqa: E402
 from ground_scenes import fence, ground, patches, pole, solved, sun  # noqa: E402
 from render_scenes import uv_sphere  # noqa: E402
 
-from patchlight.ground.groundmap import GroundMapSettings, make_groundmap  # noqa: E402
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap  # noqa: E402
 from patchlight.ground.mapping import GroundArea  # noqa: E402
-from patchlight.ground.viewer import ViewerGroundMap, stored_texels  # noqa: E402
+from patchlight.ground.viewer import ViewerGroundMap, open_ground_map_dir  # noqa: E402
 from patchlight.imaging.exposure import auto_exposure  # noqa: E402
 from patchlight.render import Camera, Renderer, target_settings  # noqa: E402
 from patchlight.render.output import display_pixels  # noqa: E402
@@ -37,9 +37,10 @@ SIDE = [0.6, 0.0, 0.8]
 FOG = {"fog_color": [2.0, 2.2, 2.6], "fog_range": [6.0, 16.0]}
 
 
-def level_with_sphere():
+def level_with_sphere(directory: Path):
     """(Target, ViewerGroundMap): a ground with coloured patches, a pole and a fence in the sun,
-    its 64 x 64 ground map in every encoding, and a smooth sphere above it."""
+    its 64 x 64 ground map written to `directory` and opened as the viewer opens it (every
+    encoding, PNG and DDS texels), and a smooth sphere above it."""
     b = SceneBuilder()
     ground(b)
     patches(b, [(0.7, 0.1, 0.1), (0.1, 0.6, 0.2), (0.2, 0.3, 0.8), (0.6, 0.6, 0.1)])
@@ -47,12 +48,9 @@ def level_with_sphere():
     fence(b, x0=-1.0, x1=4.0, z=4.0)
     level = solved(b, [sun((0.6, -1.0, -0.4))])
     gm = make_groundmap(level, GroundMapSettings(size=64, area=GroundArea(-10, -10, 10, 10), noise=0.1))
-    variants = {}
-    for encoding in ENCODINGS:
-        e = gm.encode(encoding)
-        for source in ("png", "dds"):
-            shadow = None if e.shadow is None else stored_texels(np.repeat(e.shadow[..., None], 3, -1), source)
-            variants[f"{encoding}-{source}"] = (stored_texels(e.color, source), shadow, e.map_scale, e.sky_scale)
+    write_groundmap(gm, directory, "test", None)
+    _, inputs = open_ground_map_dir(directory)
+    inputs.fog_range = (0.0, 0.0)  # fog only where a case asks for it
     s = level.scene
     positions, normals, uv, indices = uv_sphere(12, 24, 1.2, (1.0, 1.6, 2.5))
     scene = Scene(positions=np.concatenate([s.positions, positions]), normals=np.concatenate([s.normals, normals]),
@@ -60,9 +58,6 @@ def level_with_sphere():
                   material_ids=np.concatenate([s.material_ids, np.full(len(indices), len(s.materials), np.int32)]),
                   materials=s.materials + [Material("chrome", np.array([0.8, 0.8, 0.8, 1], np.float32), reflectivity=0.5)],
                   lights=s.lights, sky=s.sky, name="ground map test", source="ground map test")
-    texels, _, scale, sky_scale = variants["hsv-png"]
-    inputs = ViewerGroundMap(texture=texels / np.float32(255), U=gm.area.U, V=gm.area.V, encoding="hsv",
-                             map_scale=scale, sky_scale=sky_scale, variants=variants)
     return Target.from_scene(scene), inputs
 
 
@@ -95,8 +90,8 @@ CASES = case_list()
 
 
 @pytest.fixture(scope="module")
-def level():
-    target, inputs = level_with_sphere()
+def level(tmp_path_factory):
+    target, inputs = level_with_sphere(tmp_path_factory.mktemp("groundmap"))
     return target, Renderer(target), inputs
 
 

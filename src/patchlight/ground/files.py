@@ -6,12 +6,18 @@ already depends on): BC1 (DXT1, 4 bits per texel) for RGB maps, BC3 (DXT5, 8 bit
 the alpha encoding; the separate encoding's shadow map is a grey BC1 image. Sizes that are
 not a multiple of 4 are padded by the encoder's edge blocks.
 
-| file           | what                                                                |
-|----------------|---------------------------------------------------------------------|
-| groundmap.png  | the map: RGB (separate: the colour map; hsv) or RGBA (alpha)        |
-| groundmap.dds  | the same, BC1 or BC3                                                |
-| shadow.png/dds | separate only: the shadow amount, grey                              |
-| groundmap.json | mapping (U, V rows), area, encoding, map_scale, sky_scale, offsets  |
+| file                 | what                                                              |
+|----------------------|-------------------------------------------------------------------|
+| groundmap.png        | the map: RGB (separate: the colour map; hsv) or RGBA (alpha)      |
+| groundmap.dds        | the same, BC1 or BC3                                              |
+| shadow.png/dds       | separate only: the shadow amount, grey                            |
+| variant_<enc>.png    | the same map in the two other encodings (variant_separate_shadow  |
+|                      | .png the separate one's shadow), for the viewer's live switch     |
+| groundmap.json       | mapping (U, V rows), area, encoding, map_scale, sky_scale, offset,|
+|                      | the variants' files and constants, the cars' path; written last   |
+
+The variants are stored as PNG only: their block-compressed texels are the (deterministic)
+encoder's output for those PNG texels, so a reader makes them exactly as groundmap.dds was made.
 """
 from __future__ import annotations
 
@@ -24,10 +30,11 @@ from PIL import Image
 
 from ..errors import PatchlightError
 from ..imaging.io import decode_image, read_bytes, write_bytes, write_png
+from ..shading.hemisphere_radiosity import ENCODINGS, GroundMapInputs
 
 MANIFEST = "groundmap.json"
 FORMAT = "patchlight-groundmap"
-VERSION = 1
+VERSION = 2
 
 
 def to_bytes(values: np.ndarray) -> np.ndarray:
@@ -60,6 +67,12 @@ def decode_dds_bytes(data: bytes, where: str = "DDS data") -> np.ndarray:
         raise PatchlightError(f"{where}: not a readable DDS file ({exc})") from exc
 
 
+def block_compressed(pixels: np.ndarray) -> np.ndarray:
+    """(H, W, 4) uint8: uint8 (H, W, 3|4) pixels through the DDS encoder and back, the texels
+    a GPU samples from the DDS file written of them."""
+    return decode_dds_bytes(encode_dds(pixels)[0])
+
+
 def write_map_files(out_dir: Path, stem: str, pixels: np.ndarray) -> dict:
     """Write stem.png and stem.dds from uint8 (H, W, 3|4); {png, dds, dds_format} names."""
     data, block = encode_dds(pixels)
@@ -89,18 +102,90 @@ def is_groundmap_dir(path) -> bool:
 
 
 def read_manifest(path) -> dict:
-    """groundmap.json of a directory (or the file itself), checked for format and version."""
+    """groundmap.json of a directory (or the file itself), checked for format, version and
+    every field a reader uses (check_manifest)."""
     path = Path(path)
     file = path / MANIFEST if path.is_dir() else path
     try:
         manifest = json.loads(read_bytes(file))
-    except json.JSONDecodeError as exc:
-        raise PatchlightError(f"{file}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PatchlightError(f"{file}: not valid JSON ({exc})") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise PatchlightError(f"{file}: not a patchlight ground map manifest")
     if manifest.get("version") != VERSION:
-        raise PatchlightError(f"{file}: ground map version {manifest.get('version')} (this patchlight reads {VERSION})")
+        raise PatchlightError(f"{file}: ground map version {manifest.get('version')} (this patchlight reads {VERSION}; "
+                              f"write it again with `patchlight groundmap`)")
+    check_manifest(manifest, file)
     return manifest
+
+
+def _numbers(value, count: int | None = None) -> bool:
+    """value is a list of finite numbers (of `count` of them when given)."""
+    return (isinstance(value, list) and (count is None or len(value) == count)
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value))
+
+
+def _positive(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and value > 0
+
+
+def check_manifest(manifest: dict, where) -> None:
+    """PatchlightError naming the first missing or malformed field a reader of `manifest` uses."""
+    def bad(field: str, what: str):
+        raise PatchlightError(f"{where}: {field} {what}")
+
+    mapping = manifest.get("mapping")
+    if not isinstance(mapping, dict) or not (_numbers(mapping.get("U"), 4) and _numbers(mapping.get("V"), 4)):
+        bad("mapping", "needs U and V, four numbers each")
+    area = manifest.get("area")
+    if not _numbers(area, 4) or not (area[2] > area[0] and area[3] > area[1]):
+        bad("area", "needs four numbers x0, z0, x1, z1 with x1 > x0 and z1 > z0")
+    if manifest.get("encoding") not in ENCODINGS:
+        bad("encoding", f"must be one of {', '.join(ENCODINGS)}")
+    encodings = [(manifest["encoding"], manifest)] + sorted((manifest.get("variants") or {}).items())
+    if set(name for name, _ in encodings) != set(ENCODINGS):
+        bad("variants", "must hold the two encodings other than the map's own")
+    for name, entry in encodings:
+        field = "" if entry is manifest else f"variants.{name}."
+        if not isinstance(entry, dict):
+            bad(field.rstrip("."), "must be an object")
+        if not _positive(entry.get("map_scale")):
+            bad(f"{field}map_scale", "must be a positive number")
+        if not _numbers(entry.get("sky_scale"), 3):
+            bad(f"{field}sky_scale", "needs three numbers")
+        files = entry.get("files")
+        kinds = ("png", "dds") if entry is manifest else ("png",)
+        needed = ("color", "shadow") if name == "separate" else ("color",)
+        if not isinstance(files, dict) or not all(
+                isinstance(files.get(f), dict) and all(_file_name(files[f].get(k)) for k in kinds) for f in needed):
+            bad(f"{field}files", f"must name the {' and '.join(needed)} map's {' and '.join(kinds)} "
+                                 f"files in the directory")
+    if not _numbers(manifest.get("sky_light"), 3):
+        bad("sky_light", "needs three numbers")
+    offset = manifest.get("offset", 1.0)
+    if not (_numbers([offset]) and offset >= 0):
+        bad("offset", "must be a non-negative number of metres")
+    if not isinstance(manifest.get("size"), int) or not manifest["size"] > 0:
+        bad("size", "must be a positive whole number")
+    path = manifest.get("path")
+    if path is not None and not (isinstance(path, list) and len(path) >= 2 and all(_numbers(p, 3) for p in path)):
+        bad("path", "must be null or a list of at least two [x, y, z] points")
+    if not (manifest.get("bake") is None or isinstance(manifest["bake"], str)):
+        bad("bake", "must be null or a directory name")
+
+
+def _file_name(name) -> bool:
+    """A plain file name (no directory part), as groundmap writes them."""
+    return isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\\" not in name
+
+
+def read_texels(directory, name: str) -> np.ndarray:
+    """(H, W, 4) uint8 texels of a map file in `directory`: a PNG as stored (alpha 255 when it
+    has none), a DDS as its blocks decode."""
+    path = Path(directory) / name
+    if path.suffix.lower() == ".dds":
+        return decode_dds(path)
+    return np.ascontiguousarray(_rgba(np.round(read_map_pixels(directory, name) * 255.0).astype(np.uint8)))
 
 
 def read_map_pixels(directory, name: str) -> np.ndarray:
@@ -109,36 +194,31 @@ def read_map_pixels(directory, name: str) -> np.ndarray:
     return decode_image(read_bytes(path), str(path))
 
 
-def load_ground_map(directory, block_compressed: bool = False):
+def load_ground_map(directory, block_compressed: bool = False, manifest: dict | None = None):
     """The hemisphere-radiosity model's inputs (shading.hemisphere_radiosity.GroundMapInputs)
     from a ground map directory: its PNG texels, or with block_compressed its DDS texels as
-    a GPU decodes them. The offset is the manifest's, in mode "normal"."""
-    from ..shading.hemisphere_radiosity import GroundMapInputs
-
-    manifest = read_manifest(directory)
+    a GPU decodes them. The offset is the manifest's, in mode "normal". manifest: the
+    directory's, when already read."""
+    manifest = manifest or read_manifest(directory)
     kind = "dds" if block_compressed else "png"
-
-    def texels(entry: dict) -> np.ndarray:
-        path = Path(directory) / entry[kind]
-        pixels = decode_dds(path) if block_compressed else _rgba(read_map_pixels(directory, entry["png"]))
-        return (pixels / np.float32(255.0)).astype(np.float32) if pixels.dtype == np.uint8 else pixels
-
     files = manifest["files"]
-    inputs = GroundMapInputs(texture=texels(files["color"]), U=np.asarray(manifest["mapping"]["U"], np.float32),
+    inputs = GroundMapInputs(texture=read_texels(directory, files["color"][kind]) / np.float32(255.0),
+                             U=np.asarray(manifest["mapping"]["U"], np.float32),
                              V=np.asarray(manifest["mapping"]["V"], np.float32), encoding=manifest["encoding"],
                              map_scale=float(manifest["map_scale"]),
                              sky_scale=np.asarray(manifest["sky_scale"], np.float32),
                              offset=float(manifest.get("offset", 1.0)))
     if "shadow" in files:
-        inputs.shadow = texels(files["shadow"])
+        inputs.shadow = read_texels(directory, files["shadow"][kind]) / np.float32(255.0)
     inputs.validate()
     return inputs
 
 
 def _rgba(pixels: np.ndarray) -> np.ndarray:
-    """(H, W, C) float32 in [0, 1] as (H, W, 4), alpha 1 where the image has none."""
+    """(H, W, C) pixels as (H, W, 4), alpha at full scale (1.0, or 255 for uint8) where the image has none."""
     if pixels.shape[-1] == 4:
         return pixels
-    rgba = np.ones(pixels.shape[:2] + (4,), np.float32)
+    full = 255 if pixels.dtype == np.uint8 else 1.0
+    rgba = np.full(pixels.shape[:2] + (4,), full, pixels.dtype)
     rgba[..., :3] = pixels[..., :3] if pixels.shape[-1] >= 3 else pixels[..., :1]
     return rgba

@@ -29,15 +29,17 @@ from ..errors import PatchlightError
 from ..rays.tracer import Tracer
 from ..solved import SolvedScene
 from . import encode as enc
-from .files import FORMAT, VERSION, to_bytes, write_manifest, write_map_files
+from ..imaging.io import staged_output, write_png
+from .files import FORMAT, MANIFEST, VERSION, to_bytes, write_manifest, write_map_files
 from .mapping import GroundArea, check_size, square_area
 from .picture import look_down, sun_on_ground, sun_visibility, the_sun
-from .prepare import prepare_map_geometry
+from .prepare import MapGeometry, ground_below, prepare_map_geometry
 
 SIDE_VECTOR = ("the moving object's local +X axis (glTF: +Y up, the front faces +Z) in world space, unit "
                "length; mode side moves the sample point by offset x (N . side) side, mode normal by "
                "offset x N (Listing 1 keeps the offset in the vector's length: VS_RADIOSITY_SIDE = "
                "sqrt(offset) x side)")
+STALE_FILES = ("shadow.png", "shadow.dds", "variant_*.png")  # an older map's files the new one may lack
 MAPPING_NOTE = ("u = U . (x, y, z, 1), v = V . (x, y, z, 1); +X to the right, +Z down the picture, "
                 "v = 0 is the image's top row (glTF's UV convention); texels are linear, value 1 = map_scale")
 
@@ -73,7 +75,8 @@ class GroundMap:
     I_sun on the ground (3,)) or None; shadowed: share of covered texels in shadow;
     coverage: share of texels with a surface under them; seconds per stage; warnings; and
     what any encoding is made from: excident B, unshadowed B_u (H, W, 3) with noise, shadow
-    amount s and covered (H, W); path: the scene's extras["path"] (K, 3) or None."""
+    amount s and covered (H, W); path (K, 3): the loop the viewer's cars drive, the scene's
+    extras["path"] or `car_loop`."""
 
     encoded: enc.EncodedMap
     area: GroundArea
@@ -159,29 +162,66 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     seconds["encode"] = time.perf_counter() - clock
     shadowed = float(np.mean(shadow[covered] < enc.UNSHADOWED))
     path = scene.extras.get("path") if isinstance(scene.extras, dict) else None
+    path = car_loop(geometry, area) if path is None else np.asarray(path, np.float64)
     return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, coverage,
-                     excident, unshadowed, shadow, covered, None if path is None else np.asarray(path, np.float64),
-                     seconds, warnings)
+                     excident, unshadowed, shadow, covered, path, seconds, warnings)
+
+
+def car_loop(geometry, area: GroundArea, points: int = 96) -> np.ndarray:
+    """(points, 3) the closed loop the viewer's cars drive when the scene names none (its
+    extras["path"]): an ellipse over the middle of the map, at the height of the ground beneath
+    (0 where there is none)."""
+    t = np.linspace(0, 2 * np.pi, points, endpoint=False)
+    cx, cz = (area.x0 + area.x1) / 2, (area.z0 + area.z1) / 2
+    rx, rz = 0.3 * (area.x1 - area.x0), 0.3 * (area.z1 - area.z0)
+    loop = np.stack([cx + rx * np.cos(t), np.zeros_like(t), cz + rz * np.sin(t)], axis=1)
+    floor_y = float(geometry.flat_positions[:, 1].min()) - 1.0 if len(geometry.flat_positions) else 0.0
+    heights = ground_below(MapGeometry.tracer(geometry.flat_positions), loop, floor_y)
+    loop[:, 1] = np.nan_to_num(heights, nan=0.0)
+    return loop
 
 
 def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str | None) -> dict:
-    """Write the map files and groundmap.json into out_dir (created if needed); every file
-    goes to a temporary name first. bake_dir: the bake it came from, relative to out_dir.
-    Returns the manifest."""
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise PatchlightError(f"-o {out_dir}: cannot create the directory ({exc.strerror or exc})") from exc
+    """Write the map files (files.py: the map in its encoding as PNG and DDS, the other two
+    encodings as PNG) and groundmap.json into out_dir, as one set: staged, then moved in with
+    groundmap.json last, so a reader never meets a manifest naming missing or older files.
+    bake_dir: the bake it came from, relative to out_dir. Returns the manifest."""
     clock = time.perf_counter()
     e = ground_map.encoded
-    files = {"color": write_map_files(out_dir, "groundmap", to_bytes(e.color))}
-    if e.shadow is not None:
-        grey = to_bytes(np.repeat(e.shadow[..., None], 3, axis=-1))
-        files["shadow"] = write_map_files(out_dir, "shadow", grey)
-    ground_map.seconds["write"] = time.perf_counter() - clock
+    with staged_output(out_dir, MANIFEST, stale=STALE_FILES) as staging:
+        files = {"color": write_map_files(staging, "groundmap", to_bytes(e.color))}
+        if e.shadow is not None:
+            files["shadow"] = write_map_files(staging, "shadow", _grey(e.shadow))
+        variants = {}
+        for encoding in enc.ENCODINGS:
+            if encoding != e.encoding:
+                variants[encoding] = _write_variant(staging, ground_map.encode(encoding))
+        ground_map.seconds["write"] = time.perf_counter() - clock
+        manifest = _manifest(ground_map, source, bake_dir, files, variants)
+        write_manifest(staging, manifest)
+    return manifest
+
+
+def _grey(shadow: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 grey picture of a shadow amount (H, W) in [0, 1]."""
+    return to_bytes(np.repeat(shadow[..., None], 3, axis=-1))
+
+
+def _write_variant(out_dir: Path, encoded: enc.EncodedMap) -> dict:
+    """variant_<encoding>.png (and the separate encoding's shadow) and its manifest entry."""
+    stem = f"variant_{encoded.encoding}"
+    write_png(out_dir / f"{stem}.png", to_bytes(encoded.color))
+    files = {"color": {"png": f"{stem}.png"}}
+    if encoded.shadow is not None:
+        write_png(out_dir / f"{stem}_shadow.png", _grey(encoded.shadow))
+        files["shadow"] = {"png": f"{stem}_shadow.png"}
+    return {"files": files, "map_scale": encoded.map_scale, "sky_scale": encoded.sky_scale}
+
+
+def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: dict, variants: dict) -> dict:
+    e = ground_map.encoded
     s = ground_map.settings
-    manifest = {
+    return {
         "format": FORMAT,
         "version": VERSION,
         "source": source,
@@ -195,6 +235,7 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         "map_scale": e.map_scale,
         "sky_scale": e.sky_scale,
         "sky_light": ground_map.sky_light,
+        "variants": variants,
         "offset": s.offset,
         "side_vector": SIDE_VECTOR,
         "max_height": s.max_height,
@@ -207,5 +248,3 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         "seconds_per_stage": ground_map.seconds,
         "warnings": ground_map.warnings,
     }
-    write_manifest(out_dir, manifest)
-    return manifest
