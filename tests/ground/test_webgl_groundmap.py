@@ -100,7 +100,7 @@ def cpu_picture(level, case: dict, exposure: float):
     settings = target_settings(target, model="hemisphere-radiosity", per_vertex=bool(case.get("per_vertex")),
                                ground_map=variant_inputs(inputs, case))
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
-    result = renderer.render(settings, camera, SIZE, SIZE, renderer.environment(target_settings(target)))
+    result = renderer.render(settings, camera, SIZE, SIZE)
     return display_pixels(result.radiance, exposure), result.covered, result
 
 

@@ -64,6 +64,20 @@ def test_envmap_from_a_point_in_the_scene_differs_from_the_sky(scene_file, tmp_p
     assert main(["render", *base, "--envmap-from", "0,0,0", "-o", str(room)]) == 2  # inside the sphere
 
 
+def test_envmap_from_reaches_hemisphere_radiosity_too(scene_file, tmp_path):
+    """Its reflections read the same environment cube as envmap: from the point when given."""
+    sky, point = tmp_path / "sky.exr", tmp_path / "point.exr"
+    base = [str(scene_file), "--model", "hemisphere-radiosity", "--camera", *CAMERA, "--size", "24x24"]
+    assert main(["render", *base, "-o", str(sky)]) == 0
+    assert main(["render", *base, "--envmap-from", "0,0.5,2.5", "-o", str(point)]) == 0
+    target = load_target(str(scene_file))
+    camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
+    settings = target_settings(target, model="hemisphere-radiosity")
+    expected = Renderer(target, envmap_from=(0, 0.5, 2.5)).render(settings, camera, 24, 24).radiance
+    np.testing.assert_array_equal(read_exr(point), expected)
+    assert np.abs(read_exr(sky) - read_exr(point)).max() > 0.01
+
+
 def test_lights_from_the_command_line_replace_the_scenes(scene_file, tmp_path):
     dark, lit = tmp_path / "dark.exr", tmp_path / "lit.exr"
     base = [str(scene_file), "--model", "lambert", "--camera", *CAMERA, "--size", "24x24", "--ambient", "0,0,0"]

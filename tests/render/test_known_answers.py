@@ -190,11 +190,10 @@ def test_envmap_rendered_from_a_point_sees_the_lit_walls_and_the_suns_highlight(
     target = Target.from_scene(scene)
     up = Light("directional", np.ones(3, np.float32), math.pi, direction=np.array([0, -1, 0], np.float32))
     settings = target_settings(target, model="envmap", lights=[up], ambient=(0.3, 0.3, 0.3))
-    renderer = Renderer(target)
-    cube = renderer.environment(settings, from_point=(0.0, 0.0, 0.0), size=9)  # a texel centre on each axis
+    cube = Renderer(target, envmap_from=(0.0, 0.0, 0.0)).environment(settings, size=9)  # a texel centre on each axis
     np.testing.assert_allclose(cube[0, ..., :3], 0.3, atol=1e-6)  # +X wall: ambient only
     np.testing.assert_allclose(cube[3, ..., :3], 0.3 + 1.0, atol=1e-6)  # -Y face sees the floor: A + I N.L
     assert cube[..., 3].max() == pytest.approx(1.0, abs=0.01)  # luminance of I = 1 at the sun
     assert np.argmax(cube[..., 3].reshape(6, -1).max(axis=1)) == 2  # on the +Y face
     with pytest.raises(PatchlightError, match="inside geometry"):
-        renderer.environment(settings, from_point=(5.0, 0.0, 0.0))  # outside: sees the box's backs
+        Renderer(target, envmap_from=(5.0, 0.0, 0.0)).environment(settings)  # outside: sees the box's backs

@@ -116,3 +116,18 @@ def test_the_sky_shows_behind_the_surfaces():
     behind = ~result.covered.ravel()
     assert result.covered.any() and behind.any()
     np.testing.assert_allclose(result.radiance.reshape(-1, 3)[behind], sky.radiance(directions[behind]), rtol=1e-6)
+
+
+def test_the_environment_cube_is_made_once_per_lights_and_surroundings(monkeypatch):
+    target = showcase_target(8, 16)
+    renderer = Renderer(target, envmap_from=(0.0, 0.5, 2.5))
+    made = []
+    make = renderer._make_environment
+    monkeypatch.setattr(renderer, "_make_environment", lambda *a: made.append(1) or make(*a))
+    camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
+    for model in ("envmap", "hemisphere-radiosity", "envmap"):
+        renderer.render(target_settings(target, model=model), camera, 8, 8)
+    assert len(made) == 1 and not renderer.sky_is_environment
+    renderer.render(target_settings(target, model="envmap", ambient=(0.5, 0.5, 0.5)), camera, 8, 8)
+    assert len(made) == 2  # other surroundings: another cube
+    assert Renderer(target).sky_is_environment

@@ -16,7 +16,7 @@ from render_scenes import showcase_target
 
 from patchlight.errors import PatchlightError
 from patchlight.imaging.io import encode_png
-from patchlight.render import target_settings
+from patchlight.render import Renderer, target_settings
 from patchlight.viewer.app import make_server
 from patchlight.viewer.server import ViewerServer, safe_file
 
@@ -71,6 +71,22 @@ def test_manifest_lists_the_bake_pictures_in_order(server):
     manifest = json.loads(get(server, "/scene/manifest.json")[1])
     assert manifest["pictures"] == ["lightmap.png", "pass_01.png", "pass_02.png", "adaptive.png"]
     assert manifest["settings"]["exposure"] == 1.0 and len(manifest["lights"]) == 3
+
+
+def bundled_env(server: ViewerServer) -> tuple[dict, np.ndarray]:
+    """(manifest, the environment cube the page draws with)."""
+    manifest = json.loads(get(server, "/scene/manifest.json")[1])
+    spec = manifest["arrays"][manifest["env"]]
+    data = get(server, "/scene/data.bin")[1]
+    return manifest, np.frombuffer(data, "<f4", int(np.prod(spec["shape"])), spec["offset"]).reshape(spec["shape"])
+
+
+@pytest.mark.parametrize("envmap_from", [None, (0.0, 0.5, 2.5)])
+def test_the_page_gets_the_cpu_renderers_environment(bake_like, envmap_from):
+    settings = target_settings(bake_like, model="hemisphere-radiosity")
+    with make_server(bake_like, settings, exposure=1.0, envmap_from=envmap_from) as srv:
+        _, env = bundled_env(srv)
+    np.testing.assert_array_equal(env, Renderer(bake_like, envmap_from).environment(settings))
 
 
 @pytest.mark.parametrize("path", [

@@ -66,9 +66,8 @@ def cpu_picture(showcase, case: dict) -> tuple[np.ndarray, np.ndarray]:
     target, renderer = showcase
     options = {k: v for k, v in case.items() if k not in ("name", "model")}
     settings = target_settings(target, model=case["model"], **options)
-    env = renderer.environment(target_settings(target))
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
-    result = renderer.render(settings, camera, SIZE, SIZE, env)
+    result = renderer.render(settings, camera, SIZE, SIZE)
     return display_pixels(result.radiance, EXPOSURE), result.covered
 
 

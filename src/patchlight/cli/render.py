@@ -129,12 +129,11 @@ def run(args) -> int:
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     target, settings = load_target_and_settings(args, args.model)
-    renderer = Renderer(target)
+    renderer = Renderer(target, envmap_from)
     camera = parse_camera(args.camera) if args.camera else renderer.default_camera()
     renderer.require_inputs(settings)
-    env = renderer.environment(settings, envmap_from) if settings.model == "envmap" else None
     width, height = args.size
-    result = renderer.render(settings, camera, width, height, env)
+    result = renderer.render(settings, camera, width, height)
     if exposure is None:
         exposure = auto_exposure(result.radiance[result.covered])
     write_render(output, result.radiance, exposure)

@@ -6,7 +6,7 @@ viewer culls the back faces of single-sided materials, rays pass through them he
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,6 +24,7 @@ INSIDE_FRACTION = 0.5  # above this share of hits on single-sided back faces, th
 ENCLOSED_FRACTION = 0.75  # a centre whose probe rays hit this often is in a room (a box open on one side: 5/6)
 PROBE_RAYS = 1024  # rays per probe when choosing a default camera
 MAX_PASS_THROUGH = 16  # single-sided back faces one ray may pass through before it stops
+ENV_MODELS = ("envmap", "hemisphere-radiosity")  # the models that read the environment cube
 
 
 @dataclass
@@ -35,10 +36,14 @@ class RenderResult:
 
 
 class Renderer:
-    """Renders one Target with any settings and camera; keeps the Embree scene between calls."""
+    """Renders one Target with any settings and camera; keeps the Embree scene and the
+    environment cube between calls. envmap_from (3,): where the envmap and hemisphere-radiosity
+    models' environment cube is rendered from, or None for the scene's sky (`environment`)."""
 
-    def __init__(self, target: Target):
+    def __init__(self, target: Target, envmap_from=None):
         self.target = target
+        self.envmap_from = None if envmap_from is None else np.asarray(envmap_from, np.float32)
+        self._environments: dict = {}
         surface = target.surface
         self.tracer = Tracer(surface.positions, surface.indices)
         self.double_sided = np.array([m.double_sided for m in target.scene.materials], bool)
@@ -145,14 +150,13 @@ class Renderer:
                                  materials.reflectivity[material])
         return lighting, pair_of_corner
 
-    def shade_rays(self, settings: ShadingSettings, origins: np.ndarray, directions: np.ndarray, where: str,
-                   env: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def shade_rays(self, settings: ShadingSettings, origins: np.ndarray, directions: np.ndarray,
+                   where: str) -> tuple[np.ndarray, np.ndarray]:
         """Radiance (N, 3) and covered (N,) along rays that all start at origins[0]."""
         settings.validate()
         eye = np.asarray(origins[0], np.float32)
         self.require_inputs(settings)
-        if settings.model in ("envmap", "hemisphere-radiosity") and env is None:
-            env = self.environment(settings)
+        env = self.environment(settings) if settings.model in ENV_MODELS else None
         materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
         hits = self.trace(origins, directions, where)
         frags = self.fragments(hits, settings, eye, materials)
@@ -163,12 +167,11 @@ class Renderer:
             radiance[~covered] = self.target.scene.sky.radiance(directions[~covered])
         return radiance, covered
 
-    def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int,
-               env: np.ndarray | None = None) -> RenderResult:
+    def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int) -> RenderResult:
         """Linear radiance seen by `camera` on a width x height image."""
         origins, directions = camera.rays(width, height)
         where = "the camera at ({:g}, {:g}, {:g})".format(*camera.eye)
-        radiance, covered = self.shade_rays(settings, origins, directions, where, env)
+        radiance, covered = self.shade_rays(settings, origins, directions, where)
         return RenderResult(radiance.reshape(height, width, 3), covered.reshape(height, width))
 
     def require_inputs(self, settings: ShadingSettings) -> None:
@@ -179,18 +182,31 @@ class Renderer:
 
     # ------------------------------------------------------------------ environment
 
-    def environment(self, settings: ShadingSettings, from_point=None, size: int = ENV_SIZE) -> np.ndarray:
-        """The envmap model's cube map (6, size, size, 4): from the sky when the scene has one
-        and no point is given, else rendered from `from_point` (default: the scene's centre)
-        with the lightmap model (a bake) or Lambert, the sky or black behind. A holds the
-        suns' highlight (shading.environment.light_highlight)."""
-        scene = self.target.scene
-        point = self.center if from_point is None else np.asarray(from_point, np.float32)
-        if from_point is None and scene.sky is not None:
-            return environment_from_sky(scene.sky, settings.lights, size)
+    @property
+    def sky_is_environment(self) -> bool:
+        """The environment cube is the scene's sky (so the viewer may draw it behind the scene)."""
+        return self.target.scene.sky is not None and self.envmap_from is None
+
+    def environment(self, settings: ShadingSettings, size: int = ENV_SIZE) -> np.ndarray:
+        """The environment cube map (6, size, size, 4) of the envmap and hemisphere-radiosity
+        models, made once per set of lights and surroundings: the scene's sky when it has one
+        and no envmap_from was given, else the scene seen from envmap_from (default: its
+        centre) with the lightmap model (a bake) or Lambert, the sky or black behind. A holds
+        the suns' highlight (shading.environment.light_highlight)."""
+        key = (size, repr([light.to_json() for light in settings.lights]),
+               *(np.asarray(v, np.float32).tobytes() for v in (settings.ambient, settings.sky, settings.ground)))
+        if key not in self._environments:
+            self._environments[key] = self._make_environment(settings, size)
+        return self._environments[key]
+
+    def _make_environment(self, settings: ShadingSettings, size: int) -> np.ndarray:
+        if self.sky_is_environment:
+            return environment_from_sky(self.target.scene.sky, settings.lights, size)
+        point = self.center if self.envmap_from is None else self.envmap_from
         dirs = cube_directions(size).reshape(-1, 3)
-        inner = replace(settings, per_vertex=False, normal_map=False,
-                        model="lightmap" if self.target.lightmap is not None else "lambert")
+        inner = ShadingSettings(model="lightmap" if self.target.lightmap is not None else "lambert",
+                                lights=settings.lights, ambient=settings.ambient, sky=settings.sky,
+                                ground=settings.ground)
         where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
         radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
         alpha = light_highlight(dirs, settings.lights)

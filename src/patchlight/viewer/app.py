@@ -17,11 +17,11 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
                 envmap_from=None) -> ViewerServer:
     """A ViewerServer for `target`: default camera, the envmap's cube map (from the sky, or
     rendered from `envmap_from`), and the exposure (automatic: from a small CPU render)."""
-    renderer = Renderer(target)
+    renderer = Renderer(target, envmap_from)
     camera = renderer.default_camera()
-    env = renderer.environment(settings, envmap_from)
+    env = renderer.environment(settings)
     if exposure is None:
-        preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW, env)
+        preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
     manifest, data = scene_bundle(target, settings, camera, np.asarray(env), exposure)
     pictures = {name: target.bake_dir / name for name in manifest["pictures"]}
