@@ -15,6 +15,7 @@ from render_scenes import SHOWCASE_CAMERA, showcase_target
 from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.shading import LIT_MODELS, MODELS
+from patchlight.shading.textures import sample_cube
 from patchlight.viewer.app import make_server
 
 SIZE = 128
@@ -97,3 +98,35 @@ def test_the_comparison_tells_every_option_apart(webgl, showcase, gpu_case, cpu_
     case = next(c for c in CASES if c["name"] == cpu_case)
     mean, p99 = difference(webgl[gpu_case], *cpu_picture(showcase, case))
     assert mean >= 1.0 or p99 >= 4.0
+
+
+ENVMAP_FROM = (0.0, 0.5, 2.5)
+
+
+def test_envmap_from_a_point_reflects_that_cube_with_the_sky_behind(browser, showcase, tmp_path):
+    """With --envmap-from the page reflects the cube rendered from that point, and behind the
+    scene draws the scene's own sky (not that cube), both as the CPU renderer does."""
+    target, _ = showcase
+    specs = [dict(name=name, model="envmap", sky=name == "sky", camera=CAMERA, width=SIZE, height=SIZE,
+                  exposure=EXPOSURE) for name in ("envmap", "sky")]
+    (tmp_path / "cases.json").write_text(json.dumps(specs))
+    with make_server(target, target_settings(target), exposure=EXPOSURE, envmap_from=ENVMAP_FROM) as server:
+        run = subprocess.run([*browser, "cases", server.url, str(tmp_path / "cases.json"), str(tmp_path)],
+                             capture_output=True, text=True, timeout=600, env=node_env())
+    log = json.loads((tmp_path / "log.json").read_text())
+    assert run.returncode == 0 and log["ready"] == "true" and log["errors"] == [], run.stderr[-2000:]
+    gpu = {s["name"]: np.fromfile(tmp_path / f"{s['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for s in specs}
+    renderer = Renderer(target, ENVMAP_FROM)
+    camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
+    result = renderer.render(target_settings(target, model="envmap"), camera, SIZE, SIZE)
+    cpu = display_pixels(result.radiance, EXPOSURE)
+    mean, p99 = difference(gpu["envmap"], cpu, result.covered)
+    assert mean < 1.0 and p99 < 4.0
+    behind = ~result.covered
+    assert behind.sum() > 0.1 * SIZE * SIZE and np.all(gpu["sky"][..., 3] == 255)
+    sky_diff = np.abs(gpu["sky"][..., :3].astype(int) - cpu.astype(int))[behind]
+    assert sky_diff.mean() < 1.0 and np.percentile(sky_diff, 99) < 4.0
+    _, directions = camera.rays(SIZE, SIZE)
+    env = renderer.environment(target_settings(target))
+    env_behind = display_pixels(sample_cube(env[..., :3], directions[behind.ravel()])[None], EXPOSURE)[0]
+    assert np.abs(gpu["sky"][..., :3][behind].astype(int) - env_behind.astype(int)).mean() > 4.0  # not the env

@@ -199,6 +199,14 @@ class Renderer:
             self._environments[key] = self._make_environment(settings, size)
         return self._environments[key]
 
+    def sky_cube(self, settings: ShadingSettings, size: int = ENV_SIZE) -> np.ndarray | None:
+        """(6, size, size, 4) the sky this renderer fills misses with, as a cube map (the
+        environment cube itself when that is the sky), or None without a sky."""
+        if self.sky_is_environment:
+            return self.environment(settings, size)
+        sky = self.target.scene.sky
+        return None if sky is None else environment_from_sky(sky, [], size)
+
     def _make_environment(self, settings: ShadingSettings, size: int) -> np.ndarray:
         if self.sky_is_environment:
             return environment_from_sky(self.target.scene.sky, settings.lights, size)

@@ -1,8 +1,6 @@
 """Everything `patchlight view` serves for one target, built from the CPU renderer's pieces."""
 from __future__ import annotations
 
-import numpy as np
-
 from ..imaging.exposure import auto_exposure
 from ..render.renderer import Renderer
 from ..render.target import Target
@@ -15,14 +13,15 @@ EXPOSURE_PREVIEW = 96  # pixels on a side of the CPU render that sets the automa
 
 def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposure: float | None = None,
                 envmap_from=None) -> ViewerServer:
-    """A ViewerServer for `target`: default camera, the envmap's cube map (from the sky, or
-    rendered from `envmap_from`), and the exposure (automatic: from a small CPU render)."""
+    """A ViewerServer for `target`: default camera, the environment cube (from the sky, or
+    rendered from `envmap_from`), the sky behind the scene, and the exposure (automatic: from a
+    small CPU render)."""
     renderer = Renderer(target, envmap_from)
     camera = renderer.default_camera()
     env = renderer.environment(settings)
     if exposure is None:
         preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
-    manifest, data = scene_bundle(target, settings, camera, np.asarray(env), exposure)
+    manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings))
     pictures = {name: target.bake_dir / name for name in manifest["pictures"]}
     return ViewerServer(manifest_bytes(manifest), data, pictures, port)

@@ -9,7 +9,10 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
     groups:    [{start, count, material}]  index ranges of data.bin's "indices", by material
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
-    lights, settings, camera, bounds, lightmap, env, pictures, max_lights,
+    lights, settings, camera, bounds, lightmap, pictures, max_lights,
+    env (the environment cube), sky (the cube drawn behind the scene: "env" when the
+                environment is the sky, its own cube when the environment was rendered from a
+                point, null without a sky),
     ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer),
     volume (the ambient-cube model's light volume: patchlight.volumes.viewer)
 """
@@ -52,8 +55,10 @@ class _Packer:
 
 
 def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env: np.ndarray,
-                 exposure: float) -> tuple[dict, bytes]:
-    """(manifest, data) for the page: see the module docstring."""
+                 exposure: float, sky: np.ndarray | None = None) -> tuple[dict, bytes]:
+    """(manifest, data) for the page: see the module docstring. env: the environment cube
+    (6, S, S, 4); sky: the cube of the sky drawn behind the scene (`env` itself when the
+    environment is the sky), or None for no sky."""
     s = target.surface
     pack = _Packer()
     for name in ("positions", "normals", "tangents", "uv0", "uv1", "colors"):
@@ -92,7 +97,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "bounds": [_floats(lo), _floats(hi)],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
         "env": pack.add("env", env),
-        "sky_background": target.scene.sky is not None,  # env is then the sky: draw it behind
+        "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
         "pictures": target.bake_pictures(),
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),

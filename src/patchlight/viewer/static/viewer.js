@@ -38,8 +38,10 @@ class Viewer {
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
     this.scene = new THREE.Scene();
     this.scene.add(new THREE.Mesh(bundle.geometry(), this.materials));
-    this.sky = skyDome(this.uniforms, displayGlsl);
-    this.sky.visible = this.manifest.sky_background;
+    const sky = this.manifest.sky;  // the sky behind the scene: the env cube itself, or its own cube
+    this.sky = skyDome(sky === this.manifest.env ? this.uniforms.env_map.value : sky && bundle.cube(sky),
+      this.uniforms.exposure, displayGlsl);
+    this.sky.visible = Boolean(sky);
     this.scene.add(this.sky);
     this.groundMap = new GroundMapDemo(this, vertexShader, fragmentShader);  // cars lit by a ground map
     const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
@@ -299,7 +301,8 @@ async function main() {
     volume,
     models: viewer.models,
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
-    // reflectivity, overlay, camera {eye, target, fov}, width, height); RGBA bytes, base64.
+    // reflectivity, overlay, sky (draw the sky behind), camera {eye, target, fov}, width,
+    // height); RGBA bytes, base64.
     renderCase(spec) {
       const st = viewer.state;
       st.model = spec.model;
@@ -312,7 +315,8 @@ async function main() {
       viewer.groundMap.configure(spec.radiosity);
       st.ambientCubeNaive = Boolean(spec.ambient_cube_naive);
       st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
-      viewer.sky.visible = false;  // the pixel comparisons cover surfaces only (alpha 0 elsewhere)
+      // the pixel comparisons cover surfaces only (alpha 0 elsewhere), unless a case asks for the sky
+      viewer.sky.visible = Boolean(spec.sky && viewer.manifest.sky);
       viewer.apply();
       viewer.setSize(spec.width, spec.height);
       viewer.setCamera(spec.camera.eye, spec.camera.target, spec.camera.fov);
