@@ -77,3 +77,42 @@ def test_bad_input_is_one_line_and_exit_2(baked, tmp_path, capsys, args, message
 def test_a_directory_that_is_not_a_bake(tmp_path, capsys):
     assert main(["groundmap", str(tmp_path), "-o", str(tmp_path / "out")]) == 2
     assert "not a bake" in capsys.readouterr().err
+
+
+def test_an_output_that_cannot_be_made_is_refused_before_any_work(baked, tmp_path, capsys, monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("groundmap started working before checking its output")
+
+    monkeypatch.setattr("patchlight.solved.load_solved", refuse)
+    monkeypatch.setattr("patchlight.bake.bake", refuse)
+    (tmp_path / "blocker").write_text("a file, not a directory")
+    for scene in (str(baked[1]), "cornell"):
+        assert main(["groundmap", scene, "-o", str(tmp_path / "blocker" / "map"), "--size", "16"]) == 2
+        err = capsys.readouterr().err
+        assert "is a file, not a directory" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda m: m.pop("mapping"), "mapping needs U and V"),
+    (lambda m: m.update(area=[-1, -1, 1]), "area needs four numbers"),
+    (lambda m: m.update(area=[1, -1, -1, 1]), "x1 > x0"),
+    (lambda m: m.pop("sky_scale"), "sky_scale needs three numbers"),
+    (lambda m: m.update(map_scale="big"), "map_scale must be a positive number"),
+    (lambda m: m.pop("variants"), "variants must hold"),
+    (lambda m: m["files"]["color"].pop("dds"), "files must name the color map's png and dds"),
+    (lambda m: m["files"]["color"].update(png="../../etc/passwd"), "files must name"),
+    (lambda m: m.update(encoding="rgbm"), "encoding must be one of"),
+    (lambda m: m.update(path=[[0, 0]]), "path must be null"),
+    (lambda m: m.update(version=1), "ground map version 1"),
+])
+def test_a_damaged_manifest_is_one_line_and_exit_2(baked, tmp_path, capsys, change, message):
+    _, bake_dir = baked
+    out = tmp_path / "map"
+    assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--quiet"]) == 0
+    capsys.readouterr()
+    manifest = json.loads((out / "groundmap.json").read_text())
+    change(manifest)
+    (out / "groundmap.json").write_text(json.dumps(manifest))
+    assert main(["render", str(out), "--model", "hemisphere-radiosity", "--size", "8x8", "-o", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "groundmap.json" in err and err.count("\n") == 1

@@ -74,7 +74,34 @@ def test_volume_bad_input_is_one_line_and_writes_nothing(cornell_bake, tmp_path,
 def test_volume_refuses_a_directory_that_is_not_a_bake(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     status, _, err = run(capsys, "volume", tmp_path / "empty", "-o", tmp_path / "v")
-    assert status == 2 and "not a bake" in err and err.count("\n") == 1
+    assert status == 2 and "not a complete bake" in err and err.count("\n") == 1
+
+
+@pytest.fixture
+def no_baking(monkeypatch):
+    """Any attempt to load or bake a scene fails the test: errors must come before the work."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("the command started working before checking its output")
+
+    monkeypatch.setattr("patchlight.solved.load_solved", refuse)
+
+
+@pytest.mark.parametrize("command, output", [("volume", "blocker/v"), ("vertexbake", "blocker/out.glb")])
+def test_an_output_that_cannot_be_made_is_refused_before_any_work(cornell_bake, tmp_path, capsys, no_baking,
+                                                                  command, output):
+    (tmp_path / "blocker").write_text("a file, not a directory")
+    status, _, err = run(capsys, command, cornell_bake, "-o", tmp_path / output)
+    assert status == 2 and "is a file, not a directory" in err and err.count("\n") == 1
+
+
+def test_a_volume_written_over_another_replaces_it_as_a_set(cornell_bake, tmp_path, capsys):
+    out = tmp_path / "v"
+    assert run(capsys, "volume", cornell_bake, "-o", out, "--dims", "2,2,2", "--rays", "4", "--quiet")[0] == 0
+    assert run(capsys, "volume", cornell_bake, "-o", out, "--dims", "3,2,2", "--rays", "4", "--quiet",
+               "--compact")[0] == 0
+    assert read_volume(out).grid.dims == (3, 2, 2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v"]  # no staging directory left
+    assert json.loads((out / "volume.json").read_text())["layout"] == "compact"
 
 
 def test_vertex_colours_survive_the_gltf_round_trip(cornell_bake, tmp_path, capsys):

@@ -87,8 +87,10 @@ def solve_here(args):
 
 def run(args) -> int:
     from ..ground.groundmap import make_groundmap, write_groundmap
+    from ..imaging.io import check_output_dir
 
     settings = settings_from_args(args)
+    check_output_dir(args.output)
     solved, bake_dir = solve_here(args)
     ground_map = make_groundmap(solved, settings)
     manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir)

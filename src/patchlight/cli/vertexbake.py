@@ -30,12 +30,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..imaging.io import check_output_dir
     from ..scene.gltf import save_baked_glb
     from ..volumes.vertex import vertex_incident, with_vertex_light
 
     out = args.output
     if out.suffix.lower() != ".glb":
         raise PatchlightError(f"{out}: the output must be a .glb file")
+    check_output_dir(out.parent)
     if not out.parent.is_dir():
         raise PatchlightError(f"{out}: directory {out.parent} does not exist")
     started = time.perf_counter()

@@ -15,6 +15,7 @@ from ..volumes.probes import VolumeSettings
 from .bake import add_scene_options, sky_from_args
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
+STATS = "volume.json"
 
 
 def parse_dims(text: str) -> tuple[int, int, int]:
@@ -75,13 +76,13 @@ def choose_grid(args, scene):
 
 
 def run(args) -> int:
-    from ..imaging.io import atomic_path
+    from ..imaging.io import check_output_dir, staged_output
     from ..volumes import bake_volume, write_volume
+    from ..volumes.io import DATA, HEADER
 
     if not 1 <= args.rays <= 16384:
         raise PatchlightError(f"--rays {args.rays}: must lie in 1..16384")
-    if args.output.exists() and not args.output.is_dir():
-        raise PatchlightError(f"{args.output}: exists and is not a directory")
+    check_output_dir(args.output)
     quiet = args.quiet or args.json
     if not Path(args.scene).is_dir():  # a scene to bake first: refuse a bad grid before the bake
         from ..scene import load_scene
@@ -91,12 +92,11 @@ def run(args) -> int:
     grid = choose_grid(args, solved.scene)
     settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
     volume, stats = bake_volume(solved, grid, settings, quiet=quiet)
-    args.output.mkdir(parents=True, exist_ok=True)
-    header = write_volume(args.output, volume, "compact" if args.compact else "full")
-    stats["layout"] = header["layout"]
-    stats["files"] = [header["data"], "light_volume.json", "volume.json"]
-    with atomic_path(args.output / "volume.json") as tmp:
-        tmp.write_text(json.dumps(stats, indent=2, default=float))
+    stats["layout"] = "compact" if args.compact else "full"
+    stats["files"] = [DATA, HEADER, STATS]
+    with staged_output(args.output, HEADER) as staging:  # the header, which names the rest, moves in last
+        (staging / STATS).write_text(json.dumps(stats, indent=2, default=float))
+        write_volume(staging, volume, stats["layout"])
     if args.json:
         json.dump(stats, sys.stdout, indent=2, default=float)
         print()
@@ -105,5 +105,5 @@ def run(args) -> int:
         print(f"baked {grid.count} probes ({nx} x {ny} x {nz}, {stats['inside_geometry_probes']} inside geometry) "
               f"in {stats['seconds']:.1f} s: {stats['probes_per_second']:.0f} probes/s, "
               f"{stats['rays_per_second'] / 1e6:.2f} Mrays/s")
-        print(f"results in {args.output}/: light_volume.json light_volume.bin volume.json")
+        print(f"results in {args.output}/: {DATA} {HEADER} {STATS}")
     return 0
