@@ -121,13 +121,32 @@ def test_symlinks_leading_out_are_not_followed(tmp_path):
     assert safe_file(root, "../outside.txt") is None
 
 
+def test_bake_pictures_leading_out_or_gone_are_404(tmp_path):
+    """A picture symlinked out of the bake is not served; one deleted after start-up is a 404
+    and the server goes on serving."""
+    target = showcase_target(4, 8)
+    bake = tmp_path / "bake"
+    bake.mkdir()
+    (tmp_path / "outside.png").write_bytes(b"secret outside the bake")
+    (bake / "lightmap.png").symlink_to(tmp_path / "outside.png")
+    (bake / "pass_01.png").write_bytes(encode_png(np.zeros((2, 2, 3), np.uint8)))
+    target.bake_dir = bake
+    with make_server(target, target_settings(target), exposure=1.0) as srv:
+        status, body = get(srv, "/scene/files/lightmap.png")
+        assert status == 404 and b"secret" not in body
+        assert get(srv, "/scene/files/pass_01.png")[0] == 200
+        (bake / "pass_01.png").unlink()
+        assert get(srv, "/scene/files/pass_01.png")[0] == 404
+        assert get(srv, "/scene/manifest.json")[0] == 200
+
+
 def test_a_port_in_use_is_a_one_line_error():
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
         with pytest.raises(PatchlightError, match=f"{port}.*in use"):
-            ViewerServer(b"{}", b"", {}, port)
+            ViewerServer(b"{}", b"", port=port)
 
 
 def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):

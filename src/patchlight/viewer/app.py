@@ -23,5 +23,4 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
         preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
     manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings))
-    pictures = {name: target.bake_dir / name for name in manifest["pictures"]}
-    return ViewerServer(manifest_bytes(manifest), data, pictures, port)
+    return ViewerServer(manifest_bytes(manifest), data, target.bake_dir, manifest["pictures"], port)

@@ -59,9 +59,11 @@ def safe_file(root: Path, relative: str) -> Path | None:
 class ViewerServer:
     """Serves one scene bundle. port 0 picks a free port; `url` is the page's address."""
 
-    def __init__(self, manifest: bytes, data: bytes, pictures: dict[str, Path], port: int = 0):
+    def __init__(self, manifest: bytes, data: bytes, bake_dir: Path | None = None, pictures=(), port: int = 0):
+        """bake_dir: the directory of the bake's pictures; pictures: the names there that may be served."""
         self.routes = {"/scene/manifest.json": manifest, "/scene/data.bin": data}
-        self.pictures = dict(pictures)
+        self.bake_dir = bake_dir
+        self.pictures = frozenset(pictures)
         self.three = find_three()
         handler = type("Handler", (_Handler,), {"viewer": self})
         try:
@@ -98,8 +100,9 @@ class ViewerServer:
             return safe_file(SHADERS, name)
         if prefix == "three" and name in THREE_FILES:
             return safe_file(self.three, name)
-        if prefix == "scene" and name.startswith("files/"):
-            return self.pictures.get(name[len("files/"):])
+        if prefix == "scene" and name.startswith("files/") and self.bake_dir is not None:
+            picture = name[len("files/"):]
+            return safe_file(self.bake_dir, picture) if picture in self.pictures else None
         return None
 
     def serve_forever(self) -> None:
@@ -140,7 +143,10 @@ class _Handler(BaseHTTPRequestHandler):
         except (UnicodeDecodeError, ValueError):
             body, content_type = None, ""
         if isinstance(body, Path):
-            body = body.read_bytes()
+            try:
+                body = body.read_bytes()
+            except OSError:  # gone or unreadable since it was checked
+                body = None
         if body is None:
             body, content_type = b"not found\n", "text/plain; charset=utf-8"
             self.send_response(HTTPStatus.NOT_FOUND)
