@@ -100,6 +100,21 @@ def test_shadow_amount_is_the_light_left_in_shadow():
     assert s[texel_of(9.5, 0.0)] < 1.0 and s[texel_of(-0.5, 0.0)] == 1.0
 
 
+def test_a_sun_with_a_disc_gives_the_bakes_soft_shadows():
+    """With the sun's angle (the bake's --sun-angle, or the light's own) the pole's 0.4 m wide
+    shadow 7 m from its top is a penumbra: part of the disc stays visible, as in the bake."""
+    b, lights = level()
+    hard = bake(b, lights, shadows="separate").encoded.shadow
+    soft = bake(b, lights, shadows="separate", sun_angle=10.0).encoded.shadow
+    own = lights[0]
+    own.angle = np.radians(10.0)
+    assert np.array_equal(bake(b, [own], shadows="separate").encoded.shadow, soft)
+    dark = hard[texel_of(5.0, 0.0)]
+    assert dark < soft[texel_of(5.0, 0.0)] < 1.0
+    assert np.count_nonzero((soft > dark + 0.01) & (soft < 0.99)) > np.count_nonzero((hard > dark + 0.01) & (hard < 0.99))
+    assert soft[texel_of(-5.0, 0.0)] == 1.0  # full sun stays exactly unshadowed
+
+
 def test_separate_and_alpha_give_back_the_picture():
     """ground = colour x shadow is the shadowed picture B again (to 8-bit precision)."""
     b, lights = level()

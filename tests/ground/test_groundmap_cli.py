@@ -59,6 +59,16 @@ def test_view_opens_the_map_written_with_its_own_sky(baked, tmp_path, capsys):
     assert not np.allclose(remade.encoded.sky_scale, manifest["sky_scale"])  # the bake's own sky differs
 
 
+def test_the_map_takes_the_bakes_sun_angle_unless_told_otherwise(tmp_path, capsys):
+    bake_dir = tmp_path / "bake"
+    assert main(["bake", "cornell", "-o", str(bake_dir), "--resolution", "32", "--rays", "16", "--quiet",
+                 "--sun-angle", "5"]) == 0
+    for extra, angle in (([], 5.0), (["--sun-angle", "0"], 0.0)):
+        out = tmp_path / f"map{len(extra)}"
+        assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--quiet", *extra]) == 0
+        assert json.loads((out / "groundmap.json").read_text())["sun_angle"] == angle
+
+
 @pytest.mark.parametrize("args, message", [
     (["--size", "20000"], "--size 20000"),
     (["--area", "1,2,3"], "--area 1,2,3"),

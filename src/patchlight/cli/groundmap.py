@@ -54,14 +54,29 @@ def settings_from_args(args):
 
     settings = GroundMapSettings(size=args.size, area=parse_area(args.area) if args.area else None,
                                  max_height=args.max_height, noise=args.noise, shadows=args.shadows,
-                                 seed=args.seed, offset=args.offset)
+                                 seed=args.seed, offset=args.offset, sun_angle=args.sun_angle)
     settings.validate()
     return settings
 
 
+def recorded_sun_angle(bake_dir) -> float | None:
+    """The --sun-angle (degrees) the bake in bake_dir was made with (its bake.json), or None."""
+    from ..imaging.io import read_bytes
+
+    path = Path(bake_dir) / "bake.json"
+    try:
+        angle = json.loads(read_bytes(path))["settings"].get("sun_angle")
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise PatchlightError(f"{path}: not a bake summary (no settings in it)") from None
+    if angle is not None and not (isinstance(angle, (int, float)) and 0 <= angle < 90):
+        raise PatchlightError(f"{path}: sun_angle {angle!r} is not an angle in 0..90 degrees")
+    return angle
+
+
 def solve_here(args):
-    """(SolvedScene, bake directory relative to the output): the bake directory as given, or
-    the scene baked now and written into the output directory."""
+    """(SolvedScene, bake directory relative to the output, the bake's sun angle in degrees or
+    None): the bake directory as given, or the scene baked now and written into the output
+    directory."""
     from ..bake import bake, write_bake
     from ..config import BakeSettings
     from ..solved import SolvedScene, is_bake_dir, load_solved
@@ -69,7 +84,8 @@ def solve_here(args):
 
     if is_bake_dir(args.scene):
         solved = load_solved(args.scene, sky=sky_from_args(args))
-        return solved, os.path.relpath(Path(args.scene).resolve(), args.output.resolve())
+        return solved, os.path.relpath(Path(args.scene).resolve(), args.output.resolve()), \
+            recorded_sun_angle(args.scene)
     if Path(args.scene).is_dir():
         raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
     scene = load_lit_scene(args)
@@ -82,7 +98,7 @@ def solve_here(args):
     settings = BakeSettings(texels_per_unit=density, sun_angle=args.sun_angle, falloff=args.falloff)
     result = bake(scene, settings, quiet=args.quiet or args.json)
     write_bake(result, args.output, settings)
-    return SolvedScene(result.scene, result.lightmap, str(args.scene)), "."
+    return SolvedScene(result.scene, result.lightmap, str(args.scene)), ".", args.sun_angle
 
 
 def run(args) -> int:
@@ -91,7 +107,9 @@ def run(args) -> int:
 
     settings = settings_from_args(args)
     check_output_dir(args.output)
-    solved, bake_dir = solve_here(args)
+    solved, bake_dir, bake_sun_angle = solve_here(args)
+    if settings.sun_angle is None:  # the map's shadows are the bake's
+        settings.sun_angle = bake_sun_angle
     ground_map = make_groundmap(solved, settings)
     manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir)
     if args.json:

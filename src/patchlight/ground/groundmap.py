@@ -3,7 +3,7 @@ a top-down picture of the lit level that moving objects look up as their ground 
 with static sun shadows folded in.
 
 Stages (each timed): prepare (leave out high polygons, turn vertical ones up), look down
-(one ray per texel, the bake's light at the hit), shadows (a ray to the sun per texel),
+(one ray per texel, the bake's light at the hit), shadows (rays to the sun per texel),
 encode (noise, shadow amount, one of three encodings), then `write_groundmap` writes the
 files (files.py).
 
@@ -16,6 +16,7 @@ files (files.py).
 | shadows    | str         | "hsv"   | "separate", "alpha" or "hsv" (encode.py)                      |
 | seed       | int         | 1       | noise seed                                                    |
 | offset     | metres      | 1.0     | runtime sample offset along the normal, recorded in the json  |
+| sun_angle  | degrees     | None    | the sun's angular diameter, as the bake's (None: the light's) |
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from . import encode as enc
 from ..imaging.io import staged_output, write_png
 from .files import FORMAT, MANIFEST, VERSION, to_bytes, write_manifest, write_map_files
 from .mapping import GroundArea, check_size, square_area
-from .picture import look_down, sun_on_ground, sun_visibility, the_sun
+from .picture import look_down, sun_shadow, the_sun
 from .prepare import MapGeometry, ground_below, prepare_map_geometry
 
 SIDE_VECTOR = ("the moving object's local +X axis (glTF: +Y up, the front faces +Z) in world space, unit "
@@ -55,6 +56,7 @@ class GroundMapSettings:
     shadows: str = "hsv"
     seed: int = 1
     offset: float = 1.0
+    sun_angle: float | None = None
 
     def validate(self) -> None:
         check_size(self.size)
@@ -66,6 +68,8 @@ class GroundMapSettings:
             raise PatchlightError(f"--noise {self.noise}: must lie between 0 and 1")
         if not (np.isfinite(self.offset) and self.offset >= 0):
             raise PatchlightError(f"--offset {self.offset}: must be a non-negative number of metres")
+        if self.sun_angle is not None and not (np.isfinite(self.sun_angle) and 0 <= self.sun_angle < 90):
+            raise PatchlightError(f"--sun-angle {self.sun_angle}: must lie in 0..90 degrees")
 
 
 @dataclass
@@ -146,9 +150,11 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
         sun_info = None
     else:
         lift = max(1e-4 * float(np.max(hi - lo)), 1e-3)
-        visible = sun_visibility(Tracer(scene.positions, scene.indices), picture.ground, sun, lift)
-        sun_ground = sun_on_ground(sun)
-        unshadowed = excident + picture.reflectance * (1.0 - visible)[..., None] * sun_ground
+        above = np.array([(area.x0 + area.x1) / 2, float(hi[1]) + 1.0, (area.z0 + area.z1) / 2])
+        sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
+        blocked, sun_ground = sun_shadow(Tracer(scene.positions, scene.indices), picture.ground, sun, lift, above,
+                                         sun_angle)
+        unshadowed = excident + picture.reflectance * blocked
         sun_info = (np.asarray(sun.direction, np.float32), sun_ground)
     shadow = np.where(covered, enc.shadow_amount(excident, unshadowed), 1.0).astype(np.float32)
     seconds["shadows"] = time.perf_counter() - clock
@@ -241,6 +247,7 @@ def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: d
         "max_height": s.max_height,
         "noise": s.noise,
         "seed": s.seed,
+        "sun_angle": s.sun_angle,
         "sun": None if ground_map.sun is None else {"direction": ground_map.sun[0], "on_ground": ground_map.sun[1]},
         "shadowed_fraction": ground_map.shadowed,
         "coverage": ground_map.coverage,

@@ -4,11 +4,11 @@ One ray per texel centre looks straight down (-Y) at the map geometry (prepare.p
 turned-up vertical layer first, then the flat layer. A hit shows the light leaving the
 original surface there, B = rho I + E (DESIGN.md units: radiance), read from the bake.
 
-Shadows: a shadow ray from the flat layer's hit towards the sun, against the whole level
-(tree canopies and poles left out of the picture still cast shadows), says whether the sun
-reaches that spot of ground. The real sun's 0.53 degree disc gives penumbrae of a few
-centimetres at tree height, less than a texel of a typical map, so one ray to the sun's
-centre is enough.
+Shadows: shadow rays from the flat layer's hit towards the sun, against the whole level
+(tree canopies and poles left out of the picture still cast shadows), say how much of the sun
+reaches that spot of ground. They are the bake's own direct-light rays (radiosity.direct):
+one to the sun's centre for a hard sun, stratified over its disc when it has an angle (the
+bake's --sun-angle or the light's), so the map's shadows are the bake's.
 """
 from __future__ import annotations
 
@@ -85,26 +85,25 @@ def the_sun(lights: list[Light]) -> Light | None:
     return max(suns, key=lambda s: float(np.sum(s.radiometric)), default=None)
 
 
-def sun_visibility(tracer: Tracer, ground: np.ndarray, sun: Light, lift: float) -> np.ndarray:
-    """(H, W) float32: 1 where the sun's centre is visible from the ground points (H, W, 3),
-    lifted by `lift` metres; 0 where the level blocks it; 1 where there is no point (NaN)."""
+def sun_shadow(tracer: Tracer, ground: np.ndarray, sun: Light, lift: float, above: np.ndarray,
+               sun_angle: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """What the level keeps from the sun on the ground, by the bake's own direct-light function
+    (radiosity.direct.direct_light), so the sun's disc, when it has one, gives the same soft
+    shadows as in the bake. ground (H, W, 3) the flat layer's points (NaN where none), tested
+    `lift` metres above; above (3,) a point over the whole level, where the sun is never blocked;
+    sun_angle (radians) overrides the sun's own.
+
+    Returns (blocked (H, W, 3), free (3,)): the incident light I the sun would add at each point
+    were nothing in its way (0 where there is no point), and the I it gives an unshadowed
+    horizontal patch (DESIGN.md: Es max(0, -d.y) / pi, averaged over the disc)."""
+    from ..radiosity.direct import direct_light
+
     points = ground.reshape(-1, 3)
     known = np.flatnonzero(~np.isnan(points[:, 0]))
-    to_sun = -np.asarray(sun.direction, np.float64)
-    to_sun /= np.linalg.norm(to_sun)
-    visible = np.ones(len(points), np.float32)
-    if to_sun[1] <= 0:  # the sun is at or below the horizon: the ground is in shade everywhere
-        visible[known] = 0.0
-        return visible.reshape(ground.shape[:2])
-    origins = points[known] + np.array([0.0, lift, 0.0])
-    blocked = tracer.occluded(origins.astype(np.float32), np.broadcast_to(to_sun.astype(np.float32), origins.shape),
-                              np.float32(1e30))
-    visible[known] = np.where(blocked, 0.0, 1.0)
-    return visible.reshape(ground.shape[:2])
-
-
-def sun_on_ground(sun: Light) -> np.ndarray:
-    """(3,) incident light I the sun gives an unshadowed horizontal patch: Es max(0, -d.y) / pi."""
-    d = np.asarray(sun.direction, np.float64)
-    cos = max(0.0, -d[1] / np.linalg.norm(d))
-    return (sun.radiometric * cos / np.pi).astype(np.float32)
+    up = np.array([[0.0, 1.0, 0.0]])
+    free = direct_light(np.asarray(above, np.float64)[None], up, [sun], tracer, sun_angle=sun_angle)[0]
+    seen = direct_light(points[known] + lift * up, np.repeat(up, len(known), axis=0), [sun], tracer,
+                        sun_angle=sun_angle)
+    blocked = np.zeros((len(points), 3), np.float32)
+    blocked[known] = free - seen
+    return blocked.reshape(ground.shape), free
