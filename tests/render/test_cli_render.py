@@ -78,6 +78,20 @@ def test_envmap_from_reaches_hemisphere_radiosity_too(scene_file, tmp_path):
     assert np.abs(read_exr(sky) - read_exr(point)).max() > 0.01
 
 
+def test_the_sky_flags_are_the_bakes(scene_file, tmp_path, capsys):
+    """--sky-image as bake reads it: a uniform picture is the same sky as --sky of its colour."""
+    write_exr(tmp_path / "sky.exr", np.tile(np.float32([0.2, 0.4, 0.8]), (8, 16, 1)))
+    base = [str(scene_file), "--model", "hemisphere", "--camera", *CAMERA, "--size", "24x24"]
+    assert main(["render", *base, "--sky-image", str(tmp_path / "sky.exr"), "-o", str(tmp_path / "image.exr")]) == 0
+    assert main(["render", *base, "--sky", "0.2,0.4,0.8", "-o", str(tmp_path / "uniform.exr")]) == 0
+    assert main(["render", *base, "-o", str(tmp_path / "own.exr")]) == 0
+    image, uniform = read_exr(tmp_path / "image.exr"), read_exr(tmp_path / "uniform.exr")
+    np.testing.assert_allclose(image, uniform, rtol=1e-5, atol=1e-6)
+    assert np.abs(image - read_exr(tmp_path / "own.exr")).max() > 0.05
+    assert main(["render", *base, "--sky-image", str(tmp_path / "none.exr"), "-o", str(tmp_path / "x.exr")]) == 2
+    assert "none.exr" in capsys.readouterr().err
+
+
 def test_lights_from_the_command_line_replace_the_scenes(scene_file, tmp_path):
     dark, lit = tmp_path / "dark.exr", tmp_path / "lit.exr"
     base = [str(scene_file), "--model", "lambert", "--camera", *CAMERA, "--size", "24x24", "--ambient", "0,0,0"]

@@ -8,9 +8,9 @@ import time
 from pathlib import Path
 
 from ..errors import PatchlightError
-from ..shading.lights import FALLOFFS
+from ..config import FALLOFFS
 from ..shading.models import MODELS
-from .bake import parse_rgb
+from .bake import parse_rgb, sky_from_args
 
 MAX_SIZE = 16384
 
@@ -34,10 +34,12 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
                         "(E in W/m^2, J in W/sr, angles in degrees)")
     p.add_argument("--falloff", choices=FALLOFFS, default="inverse-square",
                    help="point/spot falloff for lights that name none (default %(default)s)")
-    sky = p.add_mutually_exclusive_group()
+    sky = p.add_mutually_exclusive_group()  # the flags of cli.bake.add_scene_options, read by its sky_from_args
     sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="replace the scene's sky: uniform radiance")
     sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
                      help="replace the scene's sky: radiance at the zenith, the horizon and below it")
+    sky.add_argument("--sky-image", type=Path, metavar="FILE",
+                     help="replace the scene's sky: an equirectangular .exr or .hdr")
     p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
                    help="ambient incident light (default: from the sky, else 0.05 grey)")
     p.add_argument("--reflectivity", type=float, metavar="K", help="envmap reflectivity of every material (0..1)")
@@ -72,16 +74,14 @@ def load_target_and_settings(args, model: str):
     from ..ground.viewer import view_target
     from ..render.settings import target_settings
     from ..render.target import load_target
-    from ..scene.sky import Sky
     from ..shading.lights import parse_light_spec
     from ..volumes.viewer import find_volume
 
     spec, ground_map = view_target(args.target)
     target = load_target(spec)
-    if args.sky is not None:
-        target.scene.sky = Sky.uniform(args.sky)
-    elif args.sky_gradient is not None:
-        target.scene.sky = Sky.gradient(*args.sky_gradient)
+    sky = sky_from_args(args)
+    if sky is not None:
+        target.scene.sky = sky
     lights = None if args.light is None else [parse_light_spec(spec) for spec in args.light]
     if args.normal_map and all(m.normal_texture is None for m in target.scene.materials):
         raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
