@@ -4,32 +4,25 @@ block-compressed texels: over the pixels both cover, mean |difference| < 1/255 a
 percentile < 4/255 (8-bit sRGB values of the same exposure), as for the other models."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from browser_support import difference
+from ground_scenes import fence, ground, patches, pole, solved, sun
+from render_scenes import uv_sphere
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "viewer"))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "render"))
-
-from browser_support import DRIVER, browser_missing, node_env  # noqa: E402
-from ground_scenes import fence, ground, patches, pole, solved, sun  # noqa: E402
-from render_scenes import uv_sphere  # noqa: E402
-
-from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap  # noqa: E402
-from patchlight.ground.mapping import GroundArea  # noqa: E402
-from patchlight.ground.viewer import ViewerGroundMap, open_ground_map_dir  # noqa: E402
-from patchlight.imaging.exposure import auto_exposure  # noqa: E402
-from patchlight.render import Camera, Renderer, target_settings  # noqa: E402
-from patchlight.render.output import display_pixels  # noqa: E402
-from patchlight.render.target import Target  # noqa: E402
-from patchlight.scene.builtin import SceneBuilder  # noqa: E402
-from patchlight.scene.model import Material, Scene  # noqa: E402
-from patchlight.shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES  # noqa: E402
-from patchlight.viewer.app import make_server  # noqa: E402
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
+from patchlight.ground.mapping import GroundArea
+from patchlight.ground.viewer import ViewerGroundMap, open_ground_map_dir
+from patchlight.imaging.exposure import auto_exposure
+from patchlight.render import Camera, Renderer, target_settings
+from patchlight.render.output import display_pixels
+from patchlight.render.target import Target
+from patchlight.scene.builtin import SceneBuilder
+from patchlight.scene.model import Material, Scene
+from patchlight.shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES
+from patchlight.viewer.app import make_server
 
 SIZE = 96
 CAMERA = {"eye": [-3.0, 3.5, 9.0], "target": [1.5, 0.8, 2.0], "fov": 50.0}
@@ -111,31 +104,15 @@ def exposure(level):
 
 
 @pytest.fixture(scope="module")
-def webgl(level, exposure, tmp_path_factory):
-    reason = browser_missing()
-    if reason:
-        pytest.skip(reason)
+def webgl(browser, level, exposure, tmp_path_factory):
     target, _, inputs = level
-    out = tmp_path_factory.mktemp("webgl-groundmap")
     specs = [{"name": c["name"], "model": "hemisphere-radiosity", "per_vertex": c.get("per_vertex", False),
               "radiosity": {k: v for k, v in c.items() if k not in ("name", "per_vertex")},
               "camera": CAMERA, "width": SIZE, "height": SIZE, "exposure": exposure} for c in CASES]
-    (out / "cases.json").write_text(json.dumps(specs))
     settings = target_settings(target, model="hemisphere-radiosity", ground_map=inputs)
     with make_server(target, settings, exposure=exposure) as server:
-        run = subprocess.run(["node", str(DRIVER), "cases", server.url, str(out / "cases.json"), str(out)],
-                             capture_output=True, text=True, timeout=600, env=node_env())
-    log = json.loads((out / "log.json").read_text())
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert log["ready"] == "true" and log["errors"] == []
-    return {c["name"]: np.fromfile(out / f"{c['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for c in CASES}
-
-
-def difference(gpu, cpu, cpu_covered) -> tuple[float, float]:
-    both = (gpu[..., 3] > 0) & cpu_covered
-    assert both.sum() > 0.5 * SIZE * SIZE
-    diff = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[both]
-    return float(diff.mean()), float(np.percentile(diff, 99))
+        pictures, _ = browser.cases(server.url, specs, tmp_path_factory.mktemp("webgl-groundmap"))
+    return pictures
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])

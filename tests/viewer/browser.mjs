@@ -1,10 +1,17 @@
-// Drives the viewer page in Debian's headless Chromium (playwright-core), for the pytest suite.
+// Drives the viewer page in Debian's headless Chromium (playwright-core): the one driver of
+// every browser test (tests/viewer/browser_support.py runs it).
 //
 //   node browser.mjs cases URL CASES.json OUT_DIR   render each case with window.patchlight.renderCase,
-//                                                 write OUT_DIR/<name>.rgba (raw RGBA, top row first)
+//                                                 write OUT_DIR/<name>.rgba (raw RGBA, top row first).
+//       A case's `volume` {objects, probes, time, look_at_sphere} first shows or hides the light
+//       volume's moving objects and probe cubes and sets their time (look_at_sphere: aim the
+//       camera at the sphere's centre from that offset); the objects' places go to the log.
 //   node browser.mjs smoke URL OUT_DIR             load the page as a person would, pick every model
 //                                                 and option from the controls, save screenshot.png
-// Both write OUT_DIR/log.json: {errors: [...console errors and page errors...], ...}.
+//   node browser.mjs volume-live URL OUT_DIR       the live page with a light volume: the objects'
+//                                                 places 0.5 s apart, both volume toggles clicked,
+//                                                 screenshot.png
+// Each writes OUT_DIR/log.json: {ready, errors: [...console errors and page errors...], ...}.
 // One browser launch per run, a fresh profile each time. $PATCHLIGHT_CHROMIUM overrides /usr/bin/chromium.
 import fs from 'node:fs';
 import os from 'node:os';
@@ -46,11 +53,24 @@ async function cases(url, casesFile, outDir) {
   const specs = JSON.parse(fs.readFileSync(casesFile, 'utf8'));
   await withPage(`${url}?test=1`, outDir, async (page, log) => {
     log.seconds = {};
+    log.volume = { baked: await page.evaluate(() => window.patchlight.volume.baked), objects: {} };
     for (const spec of specs) {
       const start = Date.now();
-      const b64 = await page.evaluate((s) => window.patchlight.renderCase(s), spec);
+      const result = await page.evaluate((s) => {
+        const v = window.patchlight.volume;
+        const shown = s.volume || {};
+        v.showObjects(Boolean(shown.objects));
+        v.showProbes(Boolean(shown.probes));
+        v.setTime(shown.time ?? 0);
+        if (shown.look_at_sphere) {
+          const c = v.objects().sphere.center;
+          s.camera = { eye: c.map((x, i) => x + shown.look_at_sphere[i]), target: c, fov: 20 };
+        }
+        return { pixels: window.patchlight.renderCase(s), objects: v.objects() };
+      }, spec);
       log.seconds[spec.name] = (Date.now() - start) / 1000;
-      fs.writeFileSync(path.join(outDir, `${spec.name}.rgba`), Buffer.from(b64, 'base64'));
+      if (result.objects) log.volume.objects[spec.name] = result.objects;
+      fs.writeFileSync(path.join(outDir, `${spec.name}.rgba`), Buffer.from(result.pixels, 'base64'));
     }
   });
 }
@@ -85,7 +105,24 @@ async function smoke(url, outDir) {
   });
 }
 
+async function volumeLive(url, outDir) {
+  await withPage(url, outDir, async (page, log) => {
+    const objects = () => page.evaluate(() => window.patchlight.volume.objects());
+    log.volume = { objects: { first: await objects() } };
+    await page.waitForTimeout(500);
+    log.volume.objects.later = await objects();
+    await page.click('#volume-naive');
+    await page.click('#volume-probes');
+    await page.waitForTimeout(200);
+    log.stats = await page.textContent('#stats');
+    await page.screenshot({ path: path.join(outDir, 'screenshot.png') });
+  });
+}
+
+const COMMANDS = { cases, smoke, 'volume-live': volumeLive };
 const [command, ...rest] = process.argv.slice(2);
-if (command === 'cases') await cases(...rest);
-else if (command === 'smoke') await smoke(...rest);
-else { console.error('usage: node browser.mjs cases URL CASES.json OUT_DIR | smoke URL OUT_DIR'); process.exit(2); }
+if (COMMANDS[command]) await COMMANDS[command](...rest);
+else {
+  console.error('usage: node browser.mjs cases URL CASES.json OUT_DIR | smoke URL OUT_DIR | volume-live URL OUT_DIR');
+  process.exit(2);
+}

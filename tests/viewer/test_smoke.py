@@ -2,12 +2,8 @@
 the controls without a console error, and the screenshot shows the scene."""
 from __future__ import annotations
 
-import json
-import subprocess
-
 import numpy as np
 import pytest
-from browser_support import node_env
 from PIL import Image
 from render_scenes import showcase_target
 
@@ -25,10 +21,8 @@ def smoke(browser, tmp_path_factory):
         (target.bake_dir / name).write_bytes(encode_png(np.random.default_rng(0).integers(0, 255, (8, 8, 3), np.uint8)))
     out = tmp_path_factory.mktemp("smoke")
     with make_server(target, target_settings(target, model="lightmap")) as server:
-        run = subprocess.run([*browser, "smoke", server.url, str(out)], capture_output=True, text=True,
-                             timeout=300, env=node_env())
-    assert run.returncode == 0, run.stderr[-2000:]
-    return json.loads((out / "log.json").read_text()), out / "screenshot.png"
+        log = browser.run("smoke", server.url, out, timeout=300)
+    return log, out / "screenshot.png"
 
 
 def test_page_loads_and_every_model_can_be_picked_without_console_errors(smoke):

@@ -4,12 +4,9 @@ both cover, mean |difference| < 1/255 and the 99th percentile < 4/255 (8-bit sRG
 of the same film exposure, which both apply in their display transform)."""
 from __future__ import annotations
 
-import json
-import subprocess
-
 import numpy as np
 import pytest
-from browser_support import node_env
+from browser_support import difference
 from render_scenes import SHOWCASE_CAMERA, showcase_target
 
 from patchlight.render import Camera, Renderer, target_settings
@@ -51,16 +48,10 @@ def showcase():
 def webgl(browser, showcase, tmp_path_factory):
     """{case name: (SIZE, SIZE, 4) uint8} from one Chromium run over every case."""
     target, _ = showcase
-    out = tmp_path_factory.mktemp("webgl")
     specs = [dict(c, camera=CAMERA, width=SIZE, height=SIZE, exposure=EXPOSURE) for c in CASES]
-    (out / "cases.json").write_text(json.dumps(specs))
     with make_server(target, target_settings(target), exposure=EXPOSURE) as server:
-        run = subprocess.run([*browser, "cases", server.url, str(out / "cases.json"), str(out)],
-                             capture_output=True, text=True, timeout=600, env=node_env())
-    log = json.loads((out / "log.json").read_text())
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert log["ready"] == "true" and log["errors"] == []
-    return {c["name"]: np.fromfile(out / f"{c['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for c in CASES}
+        pictures, _ = browser.cases(server.url, specs, tmp_path_factory.mktemp("webgl"))
+    return pictures
 
 
 def cpu_picture(showcase, case: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -70,16 +61,6 @@ def cpu_picture(showcase, case: dict) -> tuple[np.ndarray, np.ndarray]:
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
     result = renderer.render(settings, camera, SIZE, SIZE)
     return display_pixels(result.radiance, EXPOSURE), result.covered
-
-
-def difference(gpu: np.ndarray, cpu: np.ndarray, cpu_covered: np.ndarray) -> tuple[float, float]:
-    """(mean, 99th percentile) of |gpu - cpu| in 1/255 units over the pixels both cover."""
-    gpu_covered = gpu[..., 3] > 0
-    both = gpu_covered & cpu_covered
-    assert both.sum() > 0.3 * SIZE * SIZE
-    assert np.count_nonzero(gpu_covered != cpu_covered) <= 0.002 * SIZE * SIZE
-    diff = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[both]
-    return float(diff.mean()), float(np.percentile(diff, 99))
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
@@ -109,13 +90,8 @@ def test_envmap_from_a_point_reflects_that_cube_with_the_sky_behind(browser, sho
     target, _ = showcase
     specs = [dict(name=name, model="envmap", sky=name == "sky", camera=CAMERA, width=SIZE, height=SIZE,
                   exposure=EXPOSURE) for name in ("envmap", "sky")]
-    (tmp_path / "cases.json").write_text(json.dumps(specs))
     with make_server(target, target_settings(target), exposure=EXPOSURE, envmap_from=ENVMAP_FROM) as server:
-        run = subprocess.run([*browser, "cases", server.url, str(tmp_path / "cases.json"), str(tmp_path)],
-                             capture_output=True, text=True, timeout=600, env=node_env())
-    log = json.loads((tmp_path / "log.json").read_text())
-    assert run.returncode == 0 and log["ready"] == "true" and log["errors"] == [], run.stderr[-2000:]
-    gpu = {s["name"]: np.fromfile(tmp_path / f"{s['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for s in specs}
+        gpu, _ = browser.cases(server.url, specs, tmp_path)
     renderer = Renderer(target, ENVMAP_FROM)
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
     result = renderer.render(target_settings(target, model="envmap"), camera, SIZE, SIZE)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from patchlight.errors import PatchlightError
-from patchlight.shading.ambient_cube import ambient_cube_cell, ambient_cube_light, ambient_cube_weights
+from patchlight.shading.ambient_cube import ambient_cube_light, ambient_cube_weights
 from patchlight.volumes import AXIS_VECTORS, LightVolume, ProbeGrid, compact, expand, read_volume, write_volume
 from patchlight.volumes.volume import LUMINANCE
 

@@ -3,13 +3,10 @@ in headless Chromium equals the CPU reference (mean |difference| < 1/255, 99th p
 < 4/255, as for every model), and the moving sphere and box are lit by the volume."""
 from __future__ import annotations
 
-import json
-import subprocess
-
 import numpy as np
 import pytest
 from PIL import Image
-from browser_support import node_env
+from browser_support import difference
 from render_scenes import SHOWCASE_CAMERA, showcase_target
 
 from patchlight.rays.tracer import Tracer
@@ -38,29 +35,27 @@ def showcase():
     return target, volume
 
 
-def spec(case: dict, camera=CAMERA) -> dict:
+def spec(case: dict, name: str | None = None, **volume) -> dict:
+    """A renderCase spec of the ambient-cube model with the case's options; volume: what the
+    light volume shows first (objects, probes, time, look_at_sphere: browser.mjs)."""
     options = {k: v for k, v in case.items() if k != "name"}
-    return dict(options, model="ambient-cube", camera=camera, width=SIZE, height=SIZE, exposure=EXPOSURE)
+    return dict(options, name=name or case["name"], model="ambient-cube", camera=CAMERA, width=SIZE, height=SIZE,
+                exposure=EXPOSURE, volume=volume)
 
 
 @pytest.fixture(scope="module")
 def webgl(browser, showcase, tmp_path_factory):
-    """({step name: (SIZE, SIZE, 4) uint8}, log) from one Chromium run."""
+    """({case name: (SIZE, SIZE, 4) uint8}, log) from one Chromium run."""
     target, volume = showcase
-    out = tmp_path_factory.mktemp("webgl-volume")
-    steps = [{"name": c["name"], "spec": spec(c)} for c in CASES]
-    steps += [{"name": "objects", "objects": True, "time": 3.0, "look_at_sphere": LOOK, "spec": spec(CASES[0])},
-              {"name": "objects-naive", "objects": True, "time": 3.0, "look_at_sphere": LOOK, "spec": spec(CASES[1])},
-              {"name": "no-objects", "objects": False, "time": 3.0, "look_at_sphere": LOOK, "spec": spec(CASES[0])},
-              {"name": "probes", "probes": True, "spec": spec(CASES[0])}]
-    (out / "steps.json").write_text(json.dumps(steps))
+    specs = [spec(c) for c in CASES]
+    specs += [spec(CASES[0], "objects", objects=True, time=3.0, look_at_sphere=LOOK),
+              spec(CASES[1], "objects-naive", objects=True, time=3.0, look_at_sphere=LOOK),
+              spec(CASES[0], "no-objects", objects=False, time=3.0, look_at_sphere=LOOK),
+              spec(CASES[0], "probes", probes=True)]
     with make_server(target, target_settings(target, volume=volume), exposure=EXPOSURE) as server:
-        run = subprocess.run([*browser, server.url, str(out / "steps.json"), str(out)],
-                             capture_output=True, text=True, timeout=600, env=node_env())
-    log = json.loads((out / "log.json").read_text())
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert log["ready"] == "true" and log["errors"] == [] and log["volume"]["baked"]
-    return {s["name"]: np.fromfile(out / f"{s['name']}.rgba", np.uint8).reshape(SIZE, SIZE, 4) for s in steps}, log
+        pictures, log = browser.cases(server.url, specs, tmp_path_factory.mktemp("webgl-volume"))
+    assert log["volume"]["baked"]
+    return pictures, log
 
 
 def cpu_picture(showcase, case: dict):
@@ -70,14 +65,6 @@ def cpu_picture(showcase, case: dict):
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
     result = Renderer(target).render(settings, camera, SIZE, SIZE)
     return display_pixels(result.radiance, EXPOSURE), result.covered
-
-
-def difference(gpu, cpu, cpu_covered) -> tuple[float, float]:
-    """(mean, 99th percentile) of |gpu - cpu| in 1/255 units over the pixels both cover."""
-    both = (gpu[..., 3] > 0) & cpu_covered
-    assert both.sum() > 0.3 * SIZE * SIZE
-    diff = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[both]
-    return float(diff.mean()), float(np.percentile(diff, 99))
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
@@ -132,11 +119,7 @@ def test_probe_cubes_are_drawn(webgl):
 def test_the_live_page_moves_the_objects_and_takes_the_toggles(browser, showcase, tmp_path):
     target, volume = showcase
     with make_server(target, target_settings(target, volume=volume), exposure=EXPOSURE) as server:
-        run = subprocess.run([*browser, server.url, "live", str(tmp_path)], capture_output=True, text=True,
-                             timeout=300, env=node_env())
-    log = json.loads((tmp_path / "log.json").read_text())
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert log["ready"] == "true" and log["errors"] == []
+        log = browser.run("volume-live", server.url, tmp_path, timeout=300)
     first, later = log["volume"]["objects"]["first"], log["volume"]["objects"]["later"]
     assert np.linalg.norm(np.subtract(first["sphere"]["center"], later["sphere"]["center"])) > 1e-3
     assert "ms/frame" in log["stats"]
