@@ -29,6 +29,7 @@ def bake_dir(tmp_path_factory, scene_file):
     lightmap = np.full((8, 8, 3), 0.25, np.float32)
     lightmap[:, 4:] = 1.0
     write_exr(out / "lightmap.exr", lightmap)
+    (out / "bake.json").write_text("{}")
     return out
 
 
@@ -53,6 +54,25 @@ def test_lightmap_model_reads_a_bake_directory(bake_dir, tmp_path):
                  "--specular", "-o", str(out)]) == 0
     image = read_exr(out)
     assert image.shape == (32, 32, 3) and image.max() > 0
+
+
+@pytest.mark.parametrize("target, model", [("bake", "lightmap"), ("file", "lambert")])
+def test_view_shows_a_bakes_lightmap_first(bake_dir, scene_file, target, model):
+    """The default model comes from the loaded target: lightmap when it has one."""
+    from patchlight.cli.main import build_parser
+    from patchlight.cli.render import load_target_and_settings
+
+    args = build_parser().parse_args(["view", str(bake_dir if target == "bake" else scene_file)])
+    assert load_target_and_settings(args, args.model)[1].model == model
+
+
+def test_a_directory_that_is_not_a_complete_bake_is_refused(bake_dir, tmp_path, capsys):
+    half = tmp_path / "half"
+    half.mkdir()
+    for name in ("scene.glb", "lightmap.exr"):  # bake.json, written last, is missing
+        (half / name).write_bytes((bake_dir / name).read_bytes())
+    assert main(["render", str(half), "--size", "8x8", "-o", str(tmp_path / "x.png")]) == 2
+    assert "not a complete bake" in capsys.readouterr().err
 
 
 def test_envmap_from_a_point_in_the_scene_differs_from_the_sky(scene_file, tmp_path):
@@ -126,7 +146,7 @@ def test_bad_input_is_one_line_and_status_2(scene_file, tmp_path, capsys, args, 
 
 
 def test_bad_targets_and_outputs(tmp_path, capsys):
-    cases = [(["render", str(tmp_path), "-o", str(tmp_path / "a.png")], "not a bake"),
+    cases = [(["render", str(tmp_path), "-o", str(tmp_path / "a.png")], "not a complete bake"),
              (["render", "room", "-o", str(tmp_path / "a.jpg")], ".png"),
              (["render", "room", "-o", str(tmp_path / "missing" / "a.png")], "does not exist"),
              (["render", "room", "--normal-map", "-o", str(tmp_path / "a.png")], "normal texture")]

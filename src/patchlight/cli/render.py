@@ -68,9 +68,10 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def load_target_and_settings(args, model: str):
+def load_target_and_settings(args, model: str | None):
     """The target the arguments name and its ShadingSettings (exposure left at 1). A ground
-    map directory names its bake, with the map as the hemisphere-radiosity model's."""
+    map directory names its bake, with the map as the hemisphere-radiosity model's. model None:
+    lightmap when the target has one (a bake), else lambert."""
     from ..ground.viewer import view_target
     from ..render.settings import target_settings
     from ..render.target import load_target
@@ -85,6 +86,8 @@ def load_target_and_settings(args, model: str):
     lights = None if args.light is None else [parse_light_spec(spec) for spec in args.light]
     if args.normal_map and all(m.normal_texture is None for m in target.scene.materials):
         raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
+    if model is None:
+        model = "lightmap" if target.lightmap is not None else "lambert"
     settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
                                per_vertex=args.per_vertex, normal_map=args.normal_map,
                                lightmap_specular=args.specular, reflectivity=args.reflectivity,

@@ -5,9 +5,7 @@ runs until Ctrl-C. The page runs the same GLSL chunks the CPU renderer's referen
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from ..errors import PatchlightError
 from ..shading.models import MODELS
 from .render import add_shading_options, load_target_and_settings, parse_exposure, parse_point
 
@@ -40,10 +38,7 @@ def run(args) -> int:
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
-    model = args.model or _default_model(args.target)
-    target, settings = load_target_and_settings(args, model)
-    if settings.model == "lightmap" and target.lightmap is None:
-        raise PatchlightError(f"{target.name}: --model lightmap needs a bake directory with lightmap.exr")
+    target, settings = load_target_and_settings(args, args.model)
     server = make_server(target, settings, args.port, exposure, envmap_from)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
@@ -54,8 +49,3 @@ def run(args) -> int:
         server.httpd.server_close()
     return 0
 
-
-def _default_model(spec: str) -> str:
-    """lightmap for a bake directory with lightmap.exr, else lambert."""
-    path = Path(spec)
-    return "lightmap" if path.is_dir() and (path / "lightmap.exr").is_file() else "lambert"

@@ -1,8 +1,9 @@
 """What `patchlight render` and `patchlight view` draw: a scene, or a bake directory.
 
-A bake directory (written by `patchlight bake`) holds scene.glb (world-space soup with the
-lightmap UVs in TEXCOORD_1), lightmap.exr (float incident light I, row 0 = v 0) and the
-pictures lightmap.png, pass_NN.png and adaptive.png, which the viewer lays over the surfaces.
+A bake directory (written by `patchlight bake`, read by `patchlight.solved.load_solved`) holds
+scene.glb (world-space soup with the lightmap UVs in TEXCOORD_1), lightmap.exr (float incident
+light I, row 0 = v 0), bake.json and the pictures lightmap.png, pass_NN.png and adaptive.png,
+which the viewer lays over the surfaces.
 """
 from __future__ import annotations
 
@@ -50,15 +51,12 @@ class Target:
 
 
 def load_target(spec: str) -> Target:
-    """A bake directory (has scene.glb) or anything `patchlight.scene.load_scene` takes."""
-    from ..imaging.io import read_exr
+    """A bake directory (`patchlight.solved.load_solved`: scene.glb, lightmap.exr, bake.json)
+    or anything `patchlight.scene.load_scene` takes (never baked here)."""
     from ..scene import load_scene
+    from ..solved import load_solved
 
-    path = Path(spec)
-    if path.is_dir():
-        if not (path / "scene.glb").is_file():
-            raise PatchlightError(f"{spec}: a directory, but not a bake (no scene.glb in it)")
-        lightmap_file = path / "lightmap.exr"
-        lightmap = read_exr(lightmap_file) if lightmap_file.is_file() else None
-        return Target.from_scene(load_scene(path / "scene.glb"), lightmap, path.resolve())
+    if Path(spec).is_dir():
+        solved = load_solved(spec)  # a complete bake, else its one-line error
+        return Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
     return Target.from_scene(load_scene(spec))

@@ -17,6 +17,7 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
     rendered from `envmap_from`), the sky behind the scene, and the exposure (automatic: from a
     small CPU render)."""
     renderer = Renderer(target, envmap_from)
+    renderer.require_inputs(settings)
     camera = renderer.default_camera()
     env = renderer.environment(settings)
     if exposure is None:
