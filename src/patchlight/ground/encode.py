@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..shading.environment import LUMINANCE
 from ..shading.hemisphere_radiosity import ENCODINGS  # the runtime model's ids for the encodings
 
 __all__ = ["ENCODINGS", "EncodedMap", "add_noise", "encode", "hsv_to_rgb", "rgb_to_hsv", "shadow_amount"]
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709, linear RGB
 SCALE_PERCENTILE = 99.9
 UNSHADOWED = 1.0 - 1e-6  # s at or above this counts as unshadowed
 

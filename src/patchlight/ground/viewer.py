@@ -33,26 +33,23 @@ class ViewerGroundMap(GroundMapInputs):
 
 def radiosity_bundle(pack, settings) -> dict:
     """Pack the model's textures into the bundle (`pack`: viewer.bundle's packer) and return
-    its manifest entry: uniform values, texture names, and for a baked map the variants and path."""
+    its manifest entry (NumPy values as they are: viewer.bundle.manifest_bytes writes them):
+    uniform values, texture names, and for a baked map the variants and path."""
     m = settings.radiosity_inputs()
     entry = {"map": pack.add_texture("radiosity_map", m.texture),
              "shadow_map": pack.add_texture("radiosity_shadow_map", m.shadow),
-             "U": _floats(m.U), "V": _floats(m.V), "encoding": ENCODINGS.index(m.encoding),
+             "U": m.U, "V": m.V, "encoding": ENCODINGS.index(m.encoding),
              "encodings": list(ENCODINGS), "offset_modes": list(OFFSET_MODES),
-             "offset_mode": OFFSET_MODES.index(m.offset_mode), "offset": float(m.offset), "side": _floats(m.side),
-             "sky_scale": _floats(m.sky_scale), "neutral": m.neutral, "fog_color": _floats(m.fog_color),
-             "fog_range": _floats(m.fog_range), "baked": settings.ground_map is not None, "variants": {}, "path": None}
+             "offset_mode": OFFSET_MODES.index(m.offset_mode), "offset": float(m.offset), "side": m.side,
+             "sky_scale": m.sky_scale, "neutral": m.neutral, "fog_color": m.fog_color,
+             "fog_range": m.fog_range, "baked": settings.ground_map is not None, "variants": {}, "path": None}
     if isinstance(m, ViewerGroundMap):
         for name, (texels, shadow, scale, sky_scale) in m.variants.items():
             entry["variants"][name] = {"map": pack.add(f"ground_{name}", texels, np.uint8),
                                        "shadow_map": None if shadow is None else pack.add(f"shadow_{name}", shadow, np.uint8),
-                                       "neutral": 0.5 * scale, "sky_scale": _floats(sky_scale)}
-        entry["path"] = None if m.path is None else np.asarray(m.path, np.float64).tolist()
+                                       "neutral": 0.5 * scale, "sky_scale": sky_scale}
+        entry["path"] = m.path
     return entry
-
-
-def _floats(v) -> list[float]:
-    return [float(x) for x in np.asarray(v).reshape(-1)]
 
 
 def stored_variants(directory, manifest: dict) -> dict:

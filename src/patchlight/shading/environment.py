@@ -17,7 +17,7 @@ from .textures import cube_directions
 
 ENV_SIZE = 64  # cube face texels; 64 resolves a sky gradient and a highlight of exponent 64
 HIGHLIGHT_EXPONENT = 64.0  # sharpness of the lights' highlight in the cube map's alpha
-_LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 weights, linear RGB
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 weights of linear RGB: the luminance of a colour
 _QUADRATURE = (64, 128)  # cos(theta) x phi midpoints per hemisphere
 
 
@@ -47,7 +47,7 @@ def light_highlight(directions: np.ndarray, lights: list[PunctualLight]) -> np.n
     for light in lights:
         if light.kind == "directional":
             L, I = incident_light(light, origin)
-            out += float(I[0] @ _LUMINANCE) * saturate(dot(directions, L[0])) ** HIGHLIGHT_EXPONENT
+            out += float(I[0] @ LUMINANCE) * saturate(dot(directions, L[0])) ** HIGHLIGHT_EXPONENT
     return out
 
 

@@ -42,13 +42,10 @@ class PunctualLight:
     cos_outer: float = 0.0
 
     def to_json(self) -> dict:
-        return {"kind": self.kind, "position": _floats(self.position), "direction": _floats(self.direction),
-                "intensity": _floats(self.intensity), "falloff": self.falloff, "range": float(self.range),
+        vectors = {name: np.asarray(getattr(self, name), np.float64).tolist()
+                   for name in ("position", "direction", "intensity")}
+        return {"kind": self.kind, **vectors, "falloff": self.falloff, "range": float(self.range),
                 "cos_inner": float(self.cos_inner), "cos_outer": float(self.cos_outer)}
-
-
-def _floats(v) -> list[float]:
-    return [float(x) for x in np.asarray(v).reshape(-1)]
 
 
 def inverse_square_falloff(d: np.ndarray) -> np.ndarray:

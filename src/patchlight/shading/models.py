@@ -82,13 +82,12 @@ class ShadingSettings:
 @dataclass
 class MaterialTable:
     """The scene's materials as arrays: base_color (M, 4), emissive (M, 3), shininess (M,),
-    reflectivity (M,), double_sided (M,) bool; per-material textures (H, W, C) f32 or None."""
+    reflectivity (M,); per-material textures (H, W, C) f32 or None."""
 
     base_color: np.ndarray
     emissive: np.ndarray
     shininess: np.ndarray
     reflectivity: np.ndarray
-    double_sided: np.ndarray
     color_maps: list
     emissive_maps: list
     normal_maps: list
@@ -100,7 +99,6 @@ class MaterialTable:
                    np.array([m.emissive for m in materials], np.float32).reshape(-1, 3),
                    np.array([m.shininess for m in materials], np.float32),
                    np.array(refl, np.float32),
-                   np.array([m.double_sided for m in materials], bool),
                    [m.base_color_texture for m in materials],
                    [m.emissive_texture for m in materials],
                    [m.normal_texture for m in materials])

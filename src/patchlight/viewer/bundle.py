@@ -73,7 +73,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
     materials = []
     for i, m in enumerate(target.scene.materials):
         materials.append({
-            "name": m.name, "base_color": _floats(m.base_color), "emissive": _floats(m.emissive),
+            "name": m.name, "base_color": m.base_color, "emissive": m.emissive,
             "shininess": float(m.shininess), "reflectivity": float(m.reflectivity),
             "double_sided": bool(m.double_sided),
             "color_map": pack.add_texture(f"color_map_{i}", m.base_color_texture),
@@ -88,13 +88,13 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "materials": materials,
         "lights": [light.to_json() for light in settings.lights[:MAX_LIGHTS]],
         "lights_dropped": max(0, len(settings.lights) - MAX_LIGHTS),
-        "settings": {"model": settings.model, "ambient": _floats(settings.ambient), "sky": _floats(settings.sky),
-                     "ground": _floats(settings.ground), "per_vertex": settings.per_vertex,
+        "settings": {"model": settings.model, "ambient": settings.ambient, "sky": settings.sky,
+                     "ground": settings.ground, "per_vertex": settings.per_vertex,
                      "normal_map": settings.normal_map, "lightmap_specular": settings.lightmap_specular,
                      "reflectivity": settings.reflectivity, "exposure": float(exposure),
                      "ambient_cube_naive": settings.ambient_cube_naive},
         "camera": camera.to_json(),
-        "bounds": [_floats(lo), _floats(hi)],
+        "bounds": [lo, hi],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
         "env": pack.add("env", env),
         "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
@@ -107,8 +107,13 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
 
 
 def manifest_bytes(manifest: dict) -> bytes:
-    return json.dumps(manifest, separators=(",", ":")).encode()
+    """The manifest as compact JSON; NumPy arrays become lists and NumPy scalars numbers."""
+    return json.dumps(manifest, separators=(",", ":"), default=_plain).encode()
 
 
-def _floats(v) -> list[float]:
-    return [float(x) for x in np.asarray(v).reshape(-1)]
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"cannot put {type(value).__name__} in the viewer's manifest")

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..shading.environment import LUMINANCE
 from .grid import ProbeGrid
 
 AXES = ("+X", "+Y", "+Z", "-X", "-Y", "-Z")
 AXIS_VECTORS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, -1]], np.float32)
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 weights of linear RGB
 
 
 @dataclass
