@@ -79,6 +79,9 @@ def case_list() -> list[dict]:
     return cases
 
 
+CARS = {"name": "cars", "variant": "hsv-png", "offset_mode": "side", "offset": 1.5, "side": SIDE, "cars": True}
+
+
 CASES = case_list()
 
 
@@ -108,7 +111,7 @@ def webgl(browser, level, exposure, tmp_path_factory):
     target, _, inputs = level
     specs = [{"name": c["name"], "model": "hemisphere-radiosity", "per_vertex": c.get("per_vertex", False),
               "radiosity": {k: v for k, v in c.items() if k not in ("name", "per_vertex")},
-              "camera": CAMERA, "width": SIZE, "height": SIZE, "exposure": exposure} for c in CASES]
+              "camera": CAMERA, "width": SIZE, "height": SIZE, "exposure": exposure} for c in CASES + [CARS]]
     settings = target_settings(target, model="hemisphere-radiosity", ground_map=inputs)
     with make_server(target, settings, exposure=exposure) as server:
         pictures, _ = browser.cases(server.url, specs, tmp_path_factory.mktemp("webgl-groundmap"))
@@ -130,3 +133,10 @@ def test_the_comparison_tells_the_options_apart(webgl, level, exposure, gpu_case
     cpu, covered, _ = cpu_picture(level, next(c for c in CASES if c["name"] == cpu_case), exposure)
     mean, p99 = difference(webgl[gpu_case], cpu, covered)
     assert mean >= 1.0 or p99 >= 4.0
+
+
+def test_the_cars_drive_on_the_written_loop_lit_by_the_map(webgl):
+    """The cars (the viewer's own material, model hemisphere-radiosity) are drawn where the
+    loop of groundmap.json runs, without a console error."""
+    changed = np.abs(webgl["cars"].astype(int) - webgl["hsv-side"].astype(int)).max(axis=-1) > 10
+    assert changed.sum() > 50

@@ -118,11 +118,7 @@ class VolumeShow {
   }
 
   material(name, rgb, reflectivity) {
-    const { vertexShader, fragmentShader } = this.viewer.shaders;
-    const m = this.viewer.material({
-      name, base_color: [...rgb, 1], emissive: [0, 0, 0], shininess: 32, reflectivity, double_sided: false,
-      color_map: null, emissive_map: null, normal_map: null,
-    }, vertexShader, fragmentShader);
+    const m = this.viewer.plainMaterial(name, rgb, reflectivity);
     this.materials.push(m);
     return m;
   }

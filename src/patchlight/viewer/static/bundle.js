@@ -20,7 +20,7 @@ export class Bundle {
   array(name) {
     const spec = this.manifest.arrays[name];
     const count = spec.shape.reduce((a, b) => a * b, 1);
-    const Type = spec.dtype === 'uint32' ? Uint32Array : Float32Array;
+    const Type = { uint32: Uint32Array, uint8: Uint8Array }[spec.dtype] ?? Float32Array;
     return new Type(this.data, spec.offset, count);
   }
 
@@ -37,10 +37,11 @@ export class Bundle {
     return g;
   }
 
-  // (H, W, 4) float32 array -> RGBA float texture, linear filtering, no mipmaps, row 0 at v = 0.
+  // (H, W, 4) float32 or uint8 array -> RGBA texture, linear filtering, no mipmaps, row 0 at v = 0
+  // (uint8 texels read as value / 255, as a GPU samples an 8-bit map).
   texture(name, wrap = THREE.RepeatWrapping) {
     const [height, width] = this.manifest.arrays[name].shape;
-    return floatTexture(this.array(name), width, height, wrap);
+    return dataTexture(this.array(name), width, height, wrap);
   }
 
   // (6, S, S, 4) float32 faces in GL order +X, -X, +Y, -Y, +Z, -Z -> cube texture.
@@ -60,8 +61,9 @@ export class Bundle {
   }
 }
 
-export function floatTexture(pixels, width, height, wrap = THREE.RepeatWrapping) {
-  const t = new THREE.DataTexture(pixels, width, height, THREE.RGBAFormat, THREE.FloatType);
+export function dataTexture(pixels, width, height, wrap = THREE.RepeatWrapping) {
+  const type = pixels instanceof Uint8Array ? THREE.UnsignedByteType : THREE.FloatType;
+  const t = new THREE.DataTexture(pixels, width, height, THREE.RGBAFormat, type);
   t.wrapS = t.wrapT = wrap;
   t.minFilter = t.magFilter = THREE.LinearFilter;
   settle(t);
@@ -69,7 +71,7 @@ export function floatTexture(pixels, width, height, wrap = THREE.RepeatWrapping)
 }
 
 export function constantTexture(rgba) {
-  return floatTexture(new Float32Array(rgba), 1, 1);
+  return dataTexture(new Float32Array(rgba), 1, 1);
 }
 
 function settle(texture) {

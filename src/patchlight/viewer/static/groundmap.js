@@ -4,33 +4,15 @@
 // switch the map (PNG texels, block-compressed texels, none), its shadow encoding and the
 // sample offset live.
 import * as THREE from 'three';
+import { constantTexture } from './bundle.js';
 
 const CAR_COLOURS = [[0.70, 0.04, 0.03], [0.05, 0.18, 0.65], [0.85, 0.62, 0.05], [0.06, 0.45, 0.12],
   [0.80, 0.80, 0.78], [0.10, 0.10, 0.11]];
 const SPEED = 22;          // metres per second along the loop
 const CAR_REFLECTIVITY = 0.6;  // paint: the listing's per-vertex reflectivity, here per material
+const GLASS = [[0.04, 0.05, 0.06], 0.9];
+const TYRES = [[0.03, 0.03, 0.03], 0.05];
 const $ = (id) => document.getElementById(id);
-
-function uint8Texture(bundle, name) {
-  const spec = bundle.manifest.arrays[name];
-  const [height, width] = spec.shape;
-  const t = new THREE.DataTexture(new Uint8Array(bundle.data, spec.offset, width * height * 4), width, height,
-    THREE.RGBAFormat, THREE.UnsignedByteType);
-  t.wrapS = t.wrapT = THREE.ClampToEdgeWrapping;
-  t.minFilter = t.magFilter = THREE.LinearFilter;
-  t.generateMipmaps = false;
-  t.flipY = false;
-  t.colorSpace = THREE.NoColorSpace;
-  t.needsUpdate = true;
-  return t;
-}
-
-function constant(rgba) {
-  const t = new THREE.DataTexture(new Float32Array(rgba), 1, 1, THREE.RGBAFormat, THREE.FloatType);
-  t.minFilter = t.magFilter = THREE.LinearFilter;
-  t.needsUpdate = true;
-  return t;
-}
 
 // The hemisphere-radiosity uniforms from the bundle's ground_map entry (float textures: the
 // CPU reference samples exactly these texels).
@@ -113,7 +95,7 @@ class Loop {
 }
 
 export class GroundMapDemo {
-  constructor(viewer, vertexShader, fragmentShader) {
+  constructor(viewer) {
     this.viewer = viewer;
     this.g = viewer.manifest.ground_map;
     this.uniforms = viewer.uniforms;
@@ -121,24 +103,25 @@ export class GroundMapDemo {
     this.state = { map: 'png', encoding: this.g.encodings[this.g.encoding], offsetMode: this.g.offset_modes[this.g.offset_mode],
       offset: this.g.offset, fog: this.g.fog_range[1] > this.g.fog_range[0], drive: true };
     this.cars = [];
-    if (this.g.baked && this.g.path) this.addCars(vertexShader, fragmentShader);
+    if (this.g.baked && this.g.path) this.addCars();
   }
 
-  addCars(vertexShader, fragmentShader) {
+  // The cars: the viewer's own material (model hemisphere-radiosity, lit per vertex as the
+  // listing does), each car with its side vector.
+  addCars() {
     const geometry = carGeometry();
     this.loop = new Loop(this.g.path);
     const defines = { MODEL: this.viewer.models.indexOf('hemisphere-radiosity'), PER_VERTEX: '' };
     CAR_COLOURS.forEach((colour, k) => {
       const side = { value: new THREE.Vector3(1, 0, 0) };
-      const material = (rgb, reflectivity) => new THREE.ShaderMaterial({
-        vertexShader, fragmentShader, defines,
-        uniforms: { ...this.uniforms, radiosity_side: side, base_color: { value: new THREE.Vector4(...rgb, 1) },
-          color_map: { value: constant([1, 1, 1, 1]) }, emissive: { value: new THREE.Vector3() },
-          emissive_map: { value: constant([1, 1, 1, 1]) }, normal_map: { value: constant([0.5, 0.5, 1, 1]) },
-          shininess: { value: 32 }, reflectivity: { value: reflectivity } },
-      });
-      const mesh = new THREE.Mesh(geometry, [material(colour, CAR_REFLECTIVITY), material([0.04, 0.05, 0.06], 0.9),
-        material([0.03, 0.03, 0.03], 0.05)]);
+      const material = ([rgb, reflectivity], part) => {
+        const m = this.viewer.plainMaterial(`car ${k} ${part}`, rgb, reflectivity);
+        m.defines = defines;
+        m.uniforms.radiosity_side = side;
+        return m;
+      };
+      const mesh = new THREE.Mesh(geometry, [material([colour, CAR_REFLECTIVITY], 'paint'), material(GLASS, 'glass'),
+        material(TYRES, 'tyres')]);
       mesh.userData = { side, distance: k * this.loop.total / CAR_COLOURS.length };
       this.viewer.scene.add(mesh);
       this.cars.push(mesh);
@@ -159,7 +142,7 @@ export class GroundMapDemo {
   }
 
   texture(name) {
-    if (!this.textures.has(name)) this.textures.set(name, uint8Texture(this.viewer.bundle, name));
+    if (!this.textures.has(name)) this.textures.set(name, this.viewer.bundle.texture(name, THREE.ClampToEdgeWrapping));
     return this.textures.get(name);
   }
 
@@ -174,8 +157,8 @@ export class GroundMapDemo {
     if (st.map === 'none' || !g.baked) {  // the plain hemisphere: ground.py's neutral_ground_map
       const s = this.viewer.manifest.settings;
       const scale = Math.max(...s.sky, ...s.ground, 1e-6);
-      u.radiosity_map.value = constant([...s.ground.map((c) => c / scale), 1]);
-      u.radiosity_shadow_map.value = constant([1, 1, 1, 1]);
+      u.radiosity_map.value = constantTexture([...s.ground.map((c) => c / scale), 1]);
+      u.radiosity_shadow_map.value = constantTexture([1, 1, 1, 1]);
       u.radiosity_encoding.value = g.encodings.indexOf('alpha');
       u.radiosity_sky_scale.value.set(...s.sky.map((c) => c / scale));
       u.radiosity_neutral.value = 0.5 * scale;
@@ -183,7 +166,7 @@ export class GroundMapDemo {
     }
     const v = g.variants[`${st.encoding}-${st.map}`];
     u.radiosity_map.value = this.texture(v.map);
-    u.radiosity_shadow_map.value = v.shadow_map ? this.texture(v.shadow_map) : constant([1, 1, 1, 1]);
+    u.radiosity_shadow_map.value = v.shadow_map ? this.texture(v.shadow_map) : constantTexture([1, 1, 1, 1]);
     u.radiosity_encoding.value = g.encodings.indexOf(st.encoding);
     u.radiosity_sky_scale.value.set(...v.sky_scale);
     u.radiosity_neutral.value = v.neutral;

@@ -3,7 +3,6 @@
 // three.js's ShaderMaterial receives plain GLSL.
 
 const INCLUDE = /^[ \t]*#include[ \t]+"([\w.]+)"[ \t]*$/gm;
-const MODEL_DEFINE = /^#define[ \t]+MODEL_(\w+)[ \t]+(\d+)/gm;
 
 export class ChunkLibrary {
   constructor() {
@@ -34,11 +33,14 @@ export class ChunkLibrary {
     return out + text.slice(last);
   }
 
-  // Model names by id from common.glsl's MODEL_* defines: MODEL_BLINN_PHONG -> "blinn-phong".
-  async models() {
+  // Names by id from common.glsl's PREFIX_* defines: names('MODEL') turns MODEL_BLINN_PHONG 4
+  // into "blinn-phong" at index 4; 'LIGHT' gives the light kinds, 'FALLOFF' the falloffs.
+  async names(prefix) {
     const text = await this.text('common.glsl');
-    const models = [];
-    for (const [, name, id] of text.matchAll(MODEL_DEFINE)) models[Number(id)] = name.toLowerCase().replaceAll('_', '-');
-    return models;
+    const names = [];
+    for (const [, name, id] of text.matchAll(new RegExp(`^#define[ \\t]+${prefix}_(\\w+)[ \\t]+(\\d+)`, 'gm'))) {
+      names[Number(id)] = name.toLowerCase().replaceAll('_', '-');
+    }
+    return names;
   }
 }

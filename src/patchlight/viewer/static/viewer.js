@@ -9,20 +9,20 @@ import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
 import { skyDome } from './sky.js';
 
-const KINDS = ['directional', 'point', 'spot'];        // light_common.glsl LIGHT_* ids
-const FALLOFFS = ['inverse-square', 'range'];          // FALLOFF_* ids
 const $ = (id) => document.getElementById(id);
 
 class Viewer {
   async init(canvas) {
     const chunks = new ChunkLibrary();
-    const [bundle, vertexShader, fragmentShader, models, displayGlsl] = await Promise.all([
-      loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'), chunks.models(),
-      chunks.text('display.glsl')]);
+    const [bundle, vertexShader, fragmentShader, models, lightKinds, falloffs, displayGlsl] = await Promise.all([
+      loadBundle(), chunks.program('surface_vertex.glsl'), chunks.program('surface_fragment.glsl'),
+      chunks.names('MODEL'), chunks.names('LIGHT'), chunks.names('FALLOFF'), chunks.text('display.glsl')]);
     this.bundle = bundle;
     this.shaders = { vertexShader, fragmentShader };
     this.manifest = bundle.manifest;
-    this.models = models;
+    this.models = models;  // the ids of common.glsl's defines, as the uniforms take them
+    this.lightKinds = lightKinds;
+    this.falloffs = falloffs;
     this.maxLights = this.manifest.max_lights;
     const s = this.manifest.settings;
     this.state = {
@@ -43,7 +43,7 @@ class Viewer {
       this.uniforms.exposure, displayGlsl);
     this.sky.visible = Boolean(sky);
     this.scene.add(this.sky);
-    this.groundMap = new GroundMapDemo(this, vertexShader, fragmentShader);  // cars lit by a ground map
+    this.groundMap = new GroundMapDemo(this);  // cars lit by a ground map
     const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
     this.radius = Math.max(lo.distanceTo(hi) / 2, 1e-3);
     this.camera = new THREE.PerspectiveCamera(45, 1, this.radius * 1e-3, this.radius * 100);
@@ -101,6 +101,15 @@ class Viewer {
     return material;
   }
 
+  // A material without textures for an object the page adds (moving objects, probe cubes).
+  plainMaterial(name, rgb, reflectivity) {
+    const { vertexShader, fragmentShader } = this.shaders;
+    return this.material({
+      name, base_color: [...rgb, 1], emissive: [0, 0, 0], shininess: 32, reflectivity, double_sided: false,
+      color_map: null, emissive_map: null, normal_map: null,
+    }, vertexShader, fragmentShader);
+  }
+
   // Push this.state into defines and uniforms.
   apply() {
     const st = this.state;
@@ -127,12 +136,12 @@ class Viewer {
     const lights = st.lights.slice(0, this.maxLights);
     u.light_count.value = lights.length;
     lights.forEach((l, i) => {
-      u.light_kind.value[i] = KINDS.indexOf(l.kind);
+      u.light_kind.value[i] = this.lightKinds.indexOf(l.kind);
       u.light_position.value[i].set(...l.position);
       u.light_direction.value[i].set(...l.direction);
       u.light_intensity.value[i].set(...l.intensity);
       u.light_range.value[i] = l.range;
-      u.light_falloff.value[i] = FALLOFFS.indexOf(l.falloff);
+      u.light_falloff.value[i] = this.falloffs.indexOf(l.falloff);
       u.light_cos_inner.value[i] = l.cos_inner;
       u.light_cos_outer.value[i] = l.cos_outer;
     });
