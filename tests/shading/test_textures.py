@@ -40,3 +40,21 @@ def test_cube_texel_directions_read_back_their_texels():
     dirs = cube_directions(size).reshape(-1, 3)
     np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1.0, atol=1e-6)
     np.testing.assert_allclose(sample_cube(faces, dirs), faces.reshape(-1, 4), atol=1e-5)
+
+
+def test_cube_filtering_runs_across_face_edges_and_corners():
+    """Seamless filtering (always on in WebGL2): at an edge the two faces' texels average, at a
+    corner the three faces', and a smooth picture stays smooth across every edge."""
+    values = np.arange(1.0, 7.0, dtype=np.float32)  # face f holds f + 1
+    faces = np.broadcast_to(values[:, None, None, None], (6, 4, 4, 1)).copy()
+    edge = np.array([[1.0, 0.2, 1.0 - 1e-6]])        # on +X, at its edge with +Z
+    np.testing.assert_allclose(sample_cube(faces, edge)[0, 0], (1 + 5) / 2, rtol=1e-4)
+    corner = np.array([[1.0, 1.0 - 1e-6, -(1.0 - 1e-6)]])  # on +X, where +Y and -Z meet it
+    np.testing.assert_allclose(sample_cube(faces, corner)[0, 0], (1 + 3 + 6) / 3, rtol=1e-4)
+    size = 16
+    smooth = cube_directions(size) @ np.array([0.3, 0.5, 0.8], np.float32)  # a linear function of direction
+    angle = np.linspace(0, 2 * np.pi, 2001)
+    for path in (np.stack([np.cos(angle), 0.3 * np.ones_like(angle), np.sin(angle)], 1),
+                 np.stack([np.cos(angle), np.sin(angle), 0.45 * np.ones_like(angle)], 1)):
+        along = sample_cube(smooth[..., None], path.astype(np.float32))[:, 0]
+        assert np.abs(np.diff(along)).max() < 2 * np.abs(np.diff(path @ [0.3, 0.5, 0.8])).max()  # no seams

@@ -7,12 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from browser_support import difference
-from render_scenes import SHOWCASE_CAMERA, showcase_target
+from render_scenes import SHOWCASE_CAMERA, _box, scene_from_parts, showcase_target, uv_sphere
 
 from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.shading import LIT_MODELS, MODELS
-from patchlight.shading.textures import sample_cube
+from patchlight.render.target import Target
+from patchlight.scene.model import Material
+from patchlight.shading.textures import _bilinear_taps, cube_face_coords, sample_cube
 from patchlight.viewer.app import make_server
 
 SIZE = 128
@@ -106,3 +108,51 @@ def test_envmap_from_a_point_reflects_that_cube_with_the_sky_behind(browser, sho
     env = renderer.environment(target_settings(target))
     env_behind = display_pixels(sample_cube(env[..., :3], directions[behind.ravel()])[None], EXPOSURE)[0]
     assert np.abs(gpu["sky"][..., :3][behind].astype(int) - env_behind.astype(int)).mean() > 4.0  # not the env
+
+
+def mirror_in_a_painted_room() -> Target:
+    """A room of six walls in six colours, lit by ambient light only, and a mirror sphere below
+    its centre: the environment cube seen from the centre holds one wall per face, so its
+    seams are where the colour changes, and the mirror shows every seam."""
+    colours = [(0.9, 0.1, 0.1), (0.1, 0.8, 0.1), (0.1, 0.2, 0.9), (0.9, 0.9, 0.1), (0.1, 0.9, 0.9), (0.9, 0.1, 0.9)]
+    walls = []
+    for positions, normals, uv, indices in _box([-3, -3, -3], [3, 3, 3]):
+        walls.append((positions, -normals, uv, indices[:, ::-1].copy()))  # facing into the room
+    materials = [Material(name=f"wall {k}", base_color=np.array([*c, 1], np.float32)) for k, c in enumerate(colours)]
+    materials.append(Material(name="mirror", base_color=np.array([0.0, 0.0, 0.0, 1], np.float32), reflectivity=1.0))
+    scene = scene_from_parts(walls + [uv_sphere(24, 48, 1.0, (0.0, -1.6, 0.0))], materials, list(range(7)))
+    return Target.from_scene(scene)
+
+
+def _clamped_cube(faces, directions):
+    """The cube lookup without seamless filtering (each face clamped at its edges)."""
+    face, s, t = cube_face_coords(directions)
+    size = faces.shape[1]
+    x0, x1, fx = _bilinear_taps(s, size, "clamp")
+    y0, y1, fy = _bilinear_taps(t, size, "clamp")
+    fx, fy = fx[:, None], fy[:, None]
+    return ((faces[face, y0, x0] * (1 - fx) + faces[face, y0, x1] * fx) * (1 - fy)
+            + (faces[face, y1, x0] * (1 - fx) + faces[face, y1, x1] * fx) * fy).astype(np.float32)
+
+
+def test_the_environment_cube_is_filtered_across_its_seams_as_webgl_does(browser, tmp_path, monkeypatch):
+    target = mirror_in_a_painted_room()
+    settings = target_settings(target, model="envmap", ambient=(1.0, 1.0, 1.0))
+    camera = {"eye": [0.0, 0.6, 2.9], "target": [0.0, -1.6, 0.0], "fov": 40.0}
+    spec = dict(name="mirror", model="envmap", camera=camera, width=SIZE, height=SIZE, exposure=EXPOSURE)
+    with make_server(target, settings, exposure=EXPOSURE, envmap_from=(0.0, 0.0, 0.0)) as server:
+        gpu = browser.cases(server.url, [spec], tmp_path)[0]["mirror"]
+    renderer = Renderer(target, envmap_from=(0.0, 0.0, 0.0))
+    view = Camera(np.array(camera["eye"]), np.array(camera["target"]), camera["fov"])
+    seamless = renderer.render(settings, view, SIZE, SIZE)
+    monkeypatch.setattr("patchlight.shading.models.sample_cube", _clamped_cube)
+    clamped = display_pixels(renderer.render(settings, view, SIZE, SIZE).radiance, EXPOSURE).astype(int)
+    cpu = display_pixels(seamless.radiance, EXPOSURE)
+    mean, p99 = difference(gpu, cpu, seamless.covered)
+    assert mean < 1.0 and p99 < 4.0
+    seams = np.abs(clamped - cpu.astype(int)).max(axis=-1) > 8
+    assert seams.sum() > 20  # the mirror shows seams where the two filters differ ...
+    at_seams = np.abs(gpu[..., :3].astype(int) - cpu.astype(int))[seams]
+    to_clamped = np.abs(gpu[..., :3].astype(int) - clamped)[seams]
+    # ... and there WebGL agrees with the seamless filter (measured: 2/255 against 15/255)
+    assert at_seams.mean() < 4.0 and at_seams.mean() < 0.25 * to_clamped.mean()
