@@ -6,6 +6,7 @@ subcommand has cleaned up.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 from ..errors import PatchlightError
@@ -14,6 +15,13 @@ SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexb
 
 
 class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors, and coordinates such as `-3.2,2,4` taken as values
+    (argparse 3.11 takes only a plain negative number for one)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
+
     def error(self, message):  # argparse's own usage errors also exit 2, in one line
         self.exit(2, f"patchlight: error: {message}\n")
 
