@@ -123,6 +123,13 @@ def test_lights_from_the_command_line_replace_the_scenes(scene_file, tmp_path):
     assert lit_image[surfaces].max() > 0.5
 
 
+def test_the_documented_minimal_spot_spec_renders(scene_file, tmp_path):
+    out = tmp_path / "spot.exr"
+    assert main(["render", str(scene_file), "--model", "lambert", "--camera", *CAMERA, "--size", "16x16",
+                 "--light", "spot:0,2,0:0,-1,0:1,1,1:10:30", "-o", str(out)]) == 0
+    assert read_exr(out).max() > 0
+
+
 @pytest.mark.parametrize("args, message", [
     (["--model", "toon"], "invalid choice"),
     (["--normal-map", "--per-vertex"], "per-pixel"),

@@ -61,9 +61,46 @@ def test_parse_light_specs():
     assert spot.outer_cone == pytest.approx(math.radians(40)) and spot.inner_cone == pytest.approx(math.radians(20))
 
 
+SPEC_FIELDS = [  # every field count of every kind: (spec, position, direction, colour, intensity, inner, outer, range)
+    ("dir:0,-2,0:1,0.9,0.8:3", None, (0, -1, 0), (1, 0.9, 0.8), 3, None, None, None),
+    ("point:1,2,3:0.5,0.6,0.7:50", (1, 2, 3), None, (0.5, 0.6, 0.7), 50, None, None, None),
+    ("point:1,2,3:0.5,0.6,0.7:50:4", (1, 2, 3), None, (0.5, 0.6, 0.7), 50, None, None, 4),
+    ("spot:0,2,0:0,-1,0:0.2,0.3,0.4:10:30", (0, 2, 0), (0, -1, 0), (0.2, 0.3, 0.4), 10, 0, 30, None),
+    ("spot:0,2,0:0,-1,0:0.2,0.3,0.4:10:30:20", (0, 2, 0), (0, -1, 0), (0.2, 0.3, 0.4), 10, 20, 30, None),
+    ("spot:0,2,0:0,-1,0:0.2,0.3,0.4:10:30:20:9", (0, 2, 0), (0, -1, 0), (0.2, 0.3, 0.4), 10, 20, 30, 9),
+]
+
+
+@pytest.mark.parametrize("spec, position, direction, colour, intensity, inner, outer, range_", SPEC_FIELDS,
+                         ids=[s[0] for s in SPEC_FIELDS])
+def test_every_field_count_of_every_kind_reads_each_field_in_its_place(spec, position, direction, colour,
+                                                                      intensity, inner, outer, range_):
+    light = parse_light_spec(spec)
+    np.testing.assert_allclose(light.color, colour, rtol=1e-6)
+    assert light.intensity == intensity and light.range == range_
+    if position is not None:
+        np.testing.assert_allclose(light.position, position)
+    if direction is not None:
+        np.testing.assert_allclose(light.direction, direction)
+    if outer is not None:
+        assert light.outer_cone == pytest.approx(math.radians(outer))
+        assert light.inner_cone == pytest.approx(math.radians(inner))
+
+
+@pytest.mark.parametrize("spec", [s[0] for s in SPEC_FIELDS])
+def test_a_negative_colour_or_intensity_is_refused_at_every_field_count(spec):
+    kind, *fields = spec.split(":")
+    at = 2 if kind == "spot" else 1  # the colour field, the intensity after it
+    for k, bad in ((at, "-1,1,1"), (at + 1, "-2")):
+        broken = ":".join([kind, *fields[:k], bad, *fields[k + 1:]])
+        with pytest.raises(PatchlightError, match="must not be negative"):
+            parse_light_spec(broken)
+
+
 @pytest.mark.parametrize("spec", ["lamp:0,0,0:1,1,1:1", "point:0,0:1,1,1:1", "point:0,0,0:1,1,1",
                                   "dir:0,0,0:1,1,1:1", "point:0,0,0:1,1,1:x", "spot:0,0,0:0,-1,0:1,1,1:1:30:40",
-                                  "point:0,0,0:1,1,1:-3", "point:0,0,0:1,1,1:1:2:3"])
+                                  "point:0,0,0:1,1,1:-3", "point:0,0,0:1,1,1:1:2:3",
+                                  "point:0,0,0:1,1,1:1:0", "spot:0,0,0:0,-1,0:1,1,1:1:30:10:-2"])
 def test_bad_light_specs_are_one_line_errors(spec):
     with pytest.raises(PatchlightError) as err:
         parse_light_spec(spec)

@@ -132,9 +132,12 @@ def parse_light_spec(spec: str, falloff: str = "inverse-square"):
         raise PatchlightError(f"--light {spec}: {kind} takes {required[kind]} to {len(shapes[kind])} "
                               f"':'-separated fields, got {len(fields)}")
     values = [_numbers(f, n, spec) for f, n in zip(fields, shapes[kind])]
-    color, (strength,) = values[-2:] if kind == "dir" else values[-4:-2] if kind == "spot" else values[1:3]
+    first = 2 if kind == "spot" else 1  # the colour field; the intensity follows it
+    color, (strength,) = values[first], values[first + 1]
     if min(color) < 0 or strength < 0:
         raise PatchlightError(f"--light {spec}: colour and intensity must not be negative")
+    if len(values) == len(shapes[kind]) and kind != "dir" and not values[-1][0] > 0:
+        raise PatchlightError(f"--light {spec}: the range must be > 0 metres (leave it out for none)")
     if kind == "dir":
         direction, color, (irradiance,) = values
         return Light("directional", np.array(color, np.float32), irradiance,
