@@ -89,13 +89,16 @@ def test_self_shadow_vanishes_exactly_at_the_terminator_where_phong_still_glints
     assert phong[dark].max() > 0.2
 
 
-def test_range_falloff_reaches_zero_at_the_range():
+@pytest.mark.parametrize("falloff", ["range", "inverse-square"])
+def test_a_lights_range_reaches_zero_at_the_range(falloff):
+    """Both falloffs honour the light's range: nothing from r on. Inverse-square is the plain
+    J cos / (pi d^2) well inside it (the window is within 1 % of 1 up to r / 4)."""
     r = 3.0
     plane = _quad([[-8, 0, 8], [8, 0, 8], [8, 0, -8], [-8, 0, -8]], [0, 1, 0])
-    lamp = Light("point", np.ones(3, np.float32), 10.0, position=np.array([0.0, 1.0, 0.0], np.float32), range=r)
+    lamp = Light("point", np.ones(3, np.float32), 10.0, position=np.array([0.0, 0.5, 0.0], np.float32), range=r)
     target = Target.from_scene(scene_from_parts([plane], [WHITE], [0], [lamp]))
     camera = Camera(np.array([0.0, 9.0, 4.0]), np.array([0.0, 0.0, 0.0]), 60.0)
-    result = render(target, camera, 96, model="lambert", falloff="range", **NO_AMBIENT)
+    result = render(target, camera, 96, model="lambert", falloff=falloff, **NO_AMBIENT)
     o, d = camera.rays(96, 96)
     ground = o - (o[:, 1] / d[:, 1])[:, None] * d
     distance = np.linalg.norm(ground - lamp.position, axis=1)
@@ -104,6 +107,14 @@ def test_range_falloff_reaches_zero_at_the_range():
     assert np.all(radiance[covered & (distance > r + 0.01)] == 0)
     assert np.all(radiance[covered & (distance < r - 0.05)] > 0)
     assert (covered & (distance > r + 0.01)).sum() > 500
+    if falloff == "inverse-square":
+        plain = 10.0 * (0.5 / distance) / (math.pi * distance ** 2)  # J cos / (pi d^2), cos = height / d
+        window = np.clip(1 - (distance / r) ** 4, 0, 1) ** 2
+        inside = covered & (distance < r)
+        np.testing.assert_allclose(radiance[inside], (plain * window)[inside], rtol=2e-4, atol=1e-7)
+        near = covered & (distance < r / 4)
+        assert near.sum() > 20
+        np.testing.assert_allclose(radiance[near], plain[near], rtol=0.01)
 
 
 def test_point_light_units_are_intensity_over_pi_d_squared():

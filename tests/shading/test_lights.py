@@ -8,8 +8,9 @@ import pytest
 
 from patchlight.errors import PatchlightError
 from patchlight.scene.model import Light
-from patchlight.shading.lights import (directional_light, from_scene_light, inverse_square_falloff,
-                                       parse_light_spec, point_light, range_falloff, spot_cone, spot_light)
+from patchlight.shading.lights import (directional_light, from_scene_light, incident_light,
+                                       inverse_square_falloff, parse_light_spec, point_light, range_falloff,
+                                       spot_cone, spot_light)
 
 
 def test_range_falloff_reaches_zero_at_the_range_and_stays_there():
@@ -19,8 +20,37 @@ def test_range_falloff_reaches_zero_at_the_range_and_stays_there():
     assert range_falloff(np.float32(5.0), r) == 0.0
 
 
-def test_inverse_square_falloff():
-    np.testing.assert_allclose(inverse_square_falloff(np.array([1.0, 2.0, 4.0])), [1.0, 0.25, 1 / 16])
+def test_inverse_square_falloff_without_a_range_is_plain():
+    d = np.array([1.0, 2.0, 4.0, 1000.0], np.float32)
+    np.testing.assert_allclose(inverse_square_falloff(d, 0.0), 1 / d ** 2, rtol=1e-7)
+
+
+def test_inverse_square_falloff_with_a_range_is_windowed_to_zero_at_it():
+    """KHR_lights_punctual's range: zero from r on; 1/d^2 x (1 - (d/r)^4)^2 below it, so
+    inverse-square to within 1 % up to r / 4."""
+    r = 8.0
+    d = np.array([0.5, 2.0, 4.0, 6.0, 7.99, 8.0, 8.01, 20.0], np.float32)
+    f = inverse_square_falloff(d, r)
+    window = np.clip(1 - (d.astype(np.float64) / r) ** 4, 0, 1) ** 2
+    np.testing.assert_allclose(f, window / d.astype(np.float64) ** 2, rtol=1e-5)
+    assert f[1] == pytest.approx(0.25 * (1 - 1 / 256) ** 2, rel=1e-6)  # d = r/4: 0.992 of 1/d^2
+    assert f[2] == pytest.approx((15 / 16) ** 2 / 16, rel=1e-6)         # d = r/2
+    np.testing.assert_allclose(f[:2] * d[:2] ** 2, 1.0, atol=0.008)     # well inside: inverse-square
+    assert np.all(f[5:] == 0)                                           # at and beyond r: nothing
+    assert np.all(np.diff(f[:6]) < 0)                                    # falls all the way
+
+
+def test_a_lights_range_cuts_inverse_square_light_where_the_bake_reads_it():
+    """The bake's direct light (radiosity/direct.py) goes through from_scene_light and
+    incident_light: a point light with a range gives nothing beyond it, inverse-square inside."""
+    lamp = Light("point", np.ones(3, np.float32), 12.0, position=np.zeros(3, np.float32), range=5.0)
+    punctual = from_scene_light(lamp, "inverse-square", "lamp")
+    P = np.array([[0.5, 0, 0], [4.99, 0, 0], [5.0, 0, 0], [9.0, 0, 0]], np.float32)
+    _, I = incident_light(punctual, P)
+    assert I[0, 0] == pytest.approx(12.0 / (np.pi * 0.25), rel=1e-3)
+    assert 0 < I[1, 0] < 1e-5 and I[2, 0] == 0 and I[3, 0] == 0
+    no_range = from_scene_light(Light("point", np.ones(3, np.float32), 12.0), "inverse-square", "lamp")
+    assert incident_light(no_range, P)[1][3, 0] == pytest.approx(12.0 / (np.pi * 81), rel=1e-6)
 
 
 def test_units_follow_design_md():

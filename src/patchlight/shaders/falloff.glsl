@@ -1,9 +1,20 @@
 // falloff.glsl: how a point or spot light's strength drops with distance d (metres).
 
 // Physical falloff of a point source: 1 / d^2 (lighting-models-for-games.txt,
-// "LightIntensity = lightStrength / (DistanceToLight * DistanceToLight)").
-float inverse_square_falloff(float d) {
-    return 1.0 / (d * d);
+// "LightIntensity = lightStrength / (DistanceToLight * DistanceToLight)"). A light with a
+// range r > 0 (KHR_lights_punctual: where its intensity reaches zero) is faded out by the
+// window saturate(1 - (d / r)^4)^2: within 1 % of 1 up to d = r / 4, exactly 0 from d = r on,
+// with a smooth edge (three.js's getDistanceAttenuation, after Frostbite's
+// window; KHR's own sample leaves the window unsquared). range <= 0: no range, plain 1 / d^2.
+float inverse_square_falloff(float d, float range) {
+    float f = 1.0 / (d * d);
+    if (range > 0.0) {
+        float x = d / range;
+        float x2 = x * x;
+        float window = saturate(1.0 - x2 * x2);
+        f *= window * window;
+    }
+    return f;
 }
 
 // Game falloff with a finite reach r: 1 - (d / r)^2, clamped to [0, 1], so it reaches

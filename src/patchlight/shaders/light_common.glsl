@@ -14,7 +14,7 @@ uniform int light_kind[MAX_LIGHTS];        // LIGHT_DIRECTIONAL | LIGHT_POINT | 
 uniform vec3 light_position[MAX_LIGHTS];   // metres (point, spot)
 uniform vec3 light_direction[MAX_LIGHTS];  // unit, the way the light travels (directional, spot)
 uniform vec3 light_intensity[MAX_LIGHTS];  // colour x intensity: W/m^2 (directional), W/sr (point, spot)
-uniform float light_range[MAX_LIGHTS];     // metres, used by FALLOFF_RANGE
+uniform float light_range[MAX_LIGHTS];     // metres, 0 for none: reach of either falloff
 uniform int light_falloff[MAX_LIGHTS];     // FALLOFF_INVERSE_SQUARE | FALLOFF_RANGE
 uniform float light_cos_inner[MAX_LIGHTS]; // spot cone, cosines of the half-angles
 uniform float light_cos_outer[MAX_LIGHTS];

@@ -30,7 +30,8 @@ MAX_LIGHTS = 8  # GLSL MAX_LIGHTS: the most lights one viewer draw takes
 class PunctualLight:
     """One light, ready to shade with. kind in LIGHT_KINDS; position (3,) metres; direction (3,)
     unit, the way the light travels; intensity (3,) colour x intensity (W/m^2 directional,
-    W/sr point and spot); range metres (> 0 when falloff is "range"); cone cosines for spots."""
+    W/sr point and spot); range metres, 0 for none (> 0 when falloff is "range"; with
+    inverse-square a range > 0 fades the light out to 0 at it); cone cosines for spots."""
 
     kind: str
     position: np.ndarray
@@ -48,9 +49,16 @@ class PunctualLight:
                 "cos_inner": float(self.cos_inner), "cos_outer": float(self.cos_outer)}
 
 
-def inverse_square_falloff(d: np.ndarray) -> np.ndarray:
-    """falloff.glsl: 1 / d^2."""
-    return 1.0 / (d * d)
+def inverse_square_falloff(d: np.ndarray, range_: float) -> np.ndarray:
+    """falloff.glsl: 1 / d^2, times the window saturate(1 - (d / r)^4)^2 when the light has a
+    range r > 0 (exactly 0 from d = r on); plain 1 / d^2 when range_ <= 0 (no range)."""
+    f = 1.0 / (d * d)
+    if range_ > 0:
+        x = d / np.float32(range_)
+        x2 = x * x
+        window = saturate(1.0 - x2 * x2)
+        f = f * (window * window)
+    return f
 
 
 def range_falloff(d: np.ndarray, range_: float) -> np.ndarray:
@@ -77,7 +85,7 @@ def point_light(position, intensity, range_: float, falloff: str, P: np.ndarray)
     """light_point.glsl: (L, I) for points P (..., 3): I = J falloff(d) / pi."""
     to_light = np.asarray(position, P.dtype) - P
     d = np.sqrt(dot(to_light, to_light))
-    f = range_falloff(d, range_) if falloff == "range" else inverse_square_falloff(d)
+    f = range_falloff(d, range_) if falloff == "range" else inverse_square_falloff(d, range_)
     return to_light / d[..., None], np.asarray(intensity, P.dtype) * (f / np.float32(np.pi))[..., None]
 
 
