@@ -150,8 +150,10 @@ def test_lightmap_model_shows_albedo_times_incident_light_with_row_zero_at_v_zer
     np.testing.assert_allclose(radiance[covered & (z < -0.1)], 0.1, rtol=1e-6)
 
 
-def test_hemisphere_shows_sky_on_top_and_ground_below():
-    target = sphere_target(48, 96, [], WHITE)
+def test_hemisphere_shows_sky_on_top_and_ground_below_and_nothing_else():
+    """mix(ground, sky, 0.5 + 0.5 N.y) x colour alone: the scene's sun and lamp add nothing."""
+    lamp = Light("point", np.ones(3, np.float32), 30.0, position=np.array([0.0, 2.0, 2.0], np.float32))
+    target = sphere_target(48, 96, [sun([0.3, 0.8, 0.5]), lamp], WHITE)
     sky, ground = np.array([0.2, 0.4, 0.9]), np.array([0.3, 0.2, 0.1])
     side = Camera(np.array([0.0, 0.0, 4.0]), np.zeros(3), 35.0)
     result = render(target, side, 65, model="hemisphere", sky=sky, ground=ground)

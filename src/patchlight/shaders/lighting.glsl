@@ -9,7 +9,8 @@
 //   phong        + specular = sum I (R.V)^n            (uncoloured)
 //   blinn-phong  + specular = sum I (N.H)^n            (uncoloured)
 //   self-shadow  diffuse = A + sum S I N.L, specular = sum S I (R.V)^n, S = saturate(4 N.L)
-//   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) + sum I N.L
+//   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) alone: no punctual lights (issue 4's
+//                definition, the hemisphere light of hemisphere-lighting-with-radiosity-maps.txt)
 //   lightmap     specular = sum I (N.H)^n only with LIGHTMAP_SPECULAR (the lightmap has the diffuse)
 //   envmap       diffuse as lambert; reflected = reflect(-V, N); fresnel = k (1 - N.V)
 //   ambient-cube diffuse = the light volume seen along N, specular = k x the volume along
@@ -54,7 +55,7 @@ Lighting light_surface(vec3 P, vec3 N, vec3 V, float gloss, float shininess, flo
 #elif MODEL != MODEL_UNLIT && MODEL != MODEL_LIGHTMAP
     lit.diffuse = ambient_color;
 #endif
-#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE
+#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE && MODEL != MODEL_HEMISPHERE
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= light_count) break;
         add_light(lit, incident_light(i, P), N, V, gloss, shininess);

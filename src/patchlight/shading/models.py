@@ -26,6 +26,7 @@ DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim,
 MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap",
           "hemisphere-radiosity", "ambient-cube")
 LIT_MODELS = MODELS[1:]
+UNLIT_BY_LIGHTS = ("unlit", "ambient", "hemisphere", "ambient-cube")  # models the punctual lights do not reach
 
 
 @dataclass
@@ -186,7 +187,7 @@ def light_surface(settings: ShadingSettings, P: np.ndarray, N: np.ndarray, V: np
         lit.specular[:] = np.reshape(reflectivity, (-1, 1)) * ambient_cube_light(volume, P, lit.reflected, naive)
     elif model not in ("unlit", "lightmap"):
         lit.diffuse[:] = settings.ambient
-    if model not in ("unlit", "ambient", "ambient-cube"):
+    if model not in UNLIT_BY_LIGHTS:
         for light in settings.lights:
             L, I = incident_light(light, P)
             add_light(model, lit, L, I, N, V, gloss, shininess, settings.lightmap_specular)
