@@ -44,6 +44,22 @@ def test_phong_and_blinn_peak_at_the_mirror_direction_with_their_own_lobes():
     assert phong[20] == pytest.approx(1.0) and blinn[20] == pytest.approx(1.0)
 
 
+def test_phong_reflects_as_the_article_does_r_is_minus_l_behind_the_surface():
+    """hlsl-lighting-models.txt: R = normalize(2 saturate(N.L) N - L). In front it is the
+    mirror direction reflect(-L, N); behind (N.L < 0) saturate gives 0 and R = -L, so a view
+    looking straight into the light sees (R.V)^n = 1 (GLSL's reflect would give 0.65^n)."""
+    rng = np.random.default_rng(3)
+    N = unit(rng.normal(size=(500, 3)))
+    L = unit(rng.normal(size=(500, 3)))
+    V = unit(rng.normal(size=(500, 3)))
+    n_dot_l = np.einsum("ij,ij->i", N, L)
+    R = np.where((n_dot_l > 0)[:, None], 2 * n_dot_l[:, None] * N - L, -L)
+    expected = np.clip(np.einsum("ij,ij->i", R, V), 0, 1) ** 4.0
+    np.testing.assert_allclose(phong_specular(N, L, V, 4.0), expected, atol=1e-12)
+    below = in_plane(np.array([2.0]))  # 115 degrees from the normal: behind the surface
+    assert phong_specular(N_UP, below, -below, 8.0)[0] == pytest.approx(1.0)
+
+
 def test_phong_highlight_survives_behind_the_terminator_but_self_shadow_removes_it():
     """Light from just below the horizon, viewer on the far side: (R.V)^n > 0 although N.L < 0."""
     L = in_plane(np.array([1.7]))

@@ -38,8 +38,8 @@ def lambert_diffuse(N: np.ndarray, L: np.ndarray) -> np.ndarray:
 
 
 def phong_specular(N: np.ndarray, L: np.ndarray, V: np.ndarray, shininess) -> np.ndarray:
-    """phong.glsl: saturate(R.V)^n with R = reflect(-L, N), (...,)."""
-    R = reflect(-L, N)
+    """phong.glsl: saturate(R.V)^n with R = normalize(2 saturate(N.L) N - L), (...,)."""
+    R = normalize(2.0 * saturate(dot(N, L))[..., None] * N - L)
     return saturate(dot(R, V)) ** shininess
 
 
