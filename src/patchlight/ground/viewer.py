@@ -15,8 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import PatchlightError
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
-from .files import block_compressed, is_groundmap_dir, load_ground_map, read_manifest, read_texels
+from ..solved import is_bake_dir
+from .files import MANIFEST, block_compressed, is_groundmap_dir, load_ground_map, read_manifest, read_texels
 
 FOG_START, FOG_END = 0.6, 1.6  # the demo's fog, in units of the map's width
 
@@ -77,12 +79,22 @@ def _stored_channels(texels: np.ndarray, name: str, encoding: str) -> np.ndarray
     return texels if (name == "color" and encoding == "alpha") else np.ascontiguousarray(texels[..., :3])
 
 
-def open_ground_map_dir(directory) -> tuple[str, ViewerGroundMap]:
-    """(the bake directory to show, the ground map with its variants and the cars' path) of
-    a ground map directory, all read from its files (module docstring). Fog: the sky's light
-    on the ground (the manifest's sky_light), from 0.6 to 1.6 map widths away."""
-    manifest = read_manifest(directory)
-    bake = (Path(directory) / (manifest.get("bake") or ".")).resolve()
+def bake_of(directory, manifest: dict) -> str | None:
+    """The absolute bake directory a ground map directory's manifest names (the directory
+    itself when it names none but is a bake), or None."""
+    named = manifest.get("bake")
+    if named is None and is_bake_dir(directory):  # written into its bake's own directory
+        named = "."
+    return None if named is None else str((Path(directory) / named).resolve())
+
+
+def open_ground_map_dir(directory, manifest: dict | None = None) -> tuple[str | None, ViewerGroundMap]:
+    """(the bake directory to show (bake_of), the ground map with its variants and the cars'
+    path) of a ground map directory, all read from its files (module docstring). Fog: the sky's
+    light on the ground (the manifest's sky_light), from 0.6 to 1.6 map widths away. manifest:
+    the directory's, when already read."""
+    manifest = manifest or read_manifest(directory)
+    bake = bake_of(directory, manifest)
     stored = load_ground_map(directory, manifest=manifest)
     x0, z0, x1, z1 = manifest["area"]
     width = max(x1 - x0, z1 - z0)
@@ -92,12 +104,31 @@ def open_ground_map_dir(directory) -> tuple[str, ViewerGroundMap]:
     inputs.fog_color = np.asarray(manifest.get("sky_light", np.zeros(3)), np.float32)
     inputs.fog_range = (FOG_START * width, FOG_END * width)
     inputs.validate()
-    return str(bake), inputs
+    return bake, inputs
 
 
-def view_target(spec: str) -> tuple[str, ViewerGroundMap | None]:
-    """For `patchlight view`: a ground map directory becomes its bake plus the map; anything
-    else passes through unchanged."""
+def view_target(spec: str, offset_mode: str | None = None) -> tuple[str, ViewerGroundMap | None]:
+    """For `patchlight render` and `view`: a ground map directory becomes its bake plus the map;
+    anything else passes through unchanged. offset_mode (--offset-mode) replaces the map's
+    recorded one; it needs a ground map directory (a target without one has no map to offset)."""
+    if offset_mode is not None and offset_mode not in OFFSET_MODES:
+        raise PatchlightError(f"--offset-mode {offset_mode}: choose from {', '.join(OFFSET_MODES)}")
     if Path(spec).is_dir() and is_groundmap_dir(spec):
-        return open_ground_map_dir(spec)
+        manifest = read_manifest(spec)
+        shown = bake_of(spec, manifest)
+        where = Path(spec) / MANIFEST
+        if shown is None:
+            raise PatchlightError(f"{where}: names no bake to show the map over (written from Python without "
+                                  f"one); write it with write_groundmap(..., bake_dir=BAKE_DIR) or bake=(result, "
+                                  f"settings), or run `patchlight groundmap SCENE_OR_BAKE_DIR -o {spec}`")
+        if not is_bake_dir(shown):
+            raise PatchlightError(f"{where}: its bake {shown} is not a complete bake (moved or deleted?); "
+                                  f"make the map again with `patchlight groundmap`")
+        _, ground_map = open_ground_map_dir(spec, manifest)
+        if offset_mode is not None:
+            ground_map.offset_mode = offset_mode
+        return shown, ground_map
+    if offset_mode is not None:
+        raise PatchlightError(f"--offset-mode {offset_mode}: {spec} is not a ground map directory (the mode moves "
+                              f"where a baked ground map is sampled; make one with `patchlight groundmap`)")
     return spec, None
