@@ -10,6 +10,7 @@ from pathlib import Path
 from ..errors import PatchlightError
 from ..config import FALLOFFS
 from ..shading.models import MODELS
+from ..shading.hemisphere_radiosity import OFFSET_MODES
 from .bake import parse_rgb, sky_from_args
 
 MAX_SIZE = 16384
@@ -49,6 +50,9 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--volume", type=Path, metavar="DIR",
                    help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
     p.add_argument("--naive-weights", action="store_true", help="ambient-cube model: weight the axes by saturate(N)")
+    p.add_argument("--offset-mode", choices=OFFSET_MODES, metavar="normal|side|none",
+                   help="hemisphere-radiosity model: where a ground map directory's map is sampled, offset along "
+                        "the normal, its left-right part only, or not at all (default: the map's groundmap.json)")
 
 
 def register(sub) -> None:
@@ -78,7 +82,7 @@ def load_target_and_settings(args, model: str | None):
     from ..shading.lights import parse_light_spec
     from ..volumes.viewer import find_volume
 
-    spec, ground_map = view_target(args.target)
+    spec, ground_map = view_target(args.target, args.offset_mode)
     target = load_target(spec)
     sky = sky_from_args(args)
     if sky is not None:
