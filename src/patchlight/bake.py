@@ -19,14 +19,15 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.gather import Gatherer
-from .radiosity.solve import FormFactors, Solution, estimate_matrix_bytes, solve
+from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
 
+FLOAT32_REACH = 1e-5        # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
 DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
-REFINE_TOLERANCE = 1e-2     # the sampler first decides on a solution converged well inside its
-REFINE_FIRST_PASSES = 100   # 2-8 % thresholds (at most this many passes), then updates it,
+REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
+REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
 REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
 
 
@@ -65,15 +66,17 @@ def _tri_uv1(scene: Scene) -> np.ndarray:
 
 def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
     """(N,) distance to lift ray origins off each patch: a twentieth of its texel, and never
-    less than float32's reach at the scene's size."""
+    less than float32's reach where the patch lies (FLOAT32_REACH of its largest coordinate,
+    over a hundred float32 steps, plus a millionth of the scene's size)."""
     lo, hi = scene.bounds()
-    floor = 2e-4 * float(np.max(hi - lo))
-    return np.maximum(0.05 * patches.size, floor).astype(np.float32)
+    reach = FLOAT32_REACH * np.abs(patches.position).max(axis=1) + 1e-6 * float(np.max(hi - lo))
+    return np.maximum(0.05 * patches.size, reach).astype(np.float32)
 
 
 def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
                      progress: Progress):
-    """Run the adaptive sampler; returns (status, order): the sampler's interpolation order."""
+    """Run the adaptive sampler, first at settings.first_accuracy, then at settings.accuracy
+    (adaptive.py); returns (status, order): the sampler's interpolation order."""
     n = len(patches)
     status = np.zeros(n, np.int8)
     if settings.adaptive:
@@ -84,13 +87,15 @@ def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, sett
     with progress.stage("gather", total=n) as advance:
         _compute(ff, grid, status, advance)
         B = None
-        for phase in phases:
-            passes = REFINE_FIRST_PASSES if B is None else REFINE_PASSES
-            solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                             passes, max(settings.tolerance, REFINE_TOLERANCE), B)
-            B, G = solution.excident, solution.gathered
-            for step in phase:
-                _compute(ff, adaptive.decide(step, status, G, settings.accuracy), status, advance)
+        for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
+            adaptive.reopen(status)
+            for k, phase in enumerate(phases):
+                passes = REFINE_FIRST_PASSES if k == 0 else REFINE_PASSES
+                solution = solve(ff, direct, patches.rho, patches.emission, status, order,
+                                 passes, max(settings.tolerance, REFINE_TOLERANCE), B)
+                B, G = solution.excident, solution.gathered
+                for step in phase:
+                    _compute(ff, adaptive.decide(step, status, G, accuracy), status, advance)
     return status, order
 
 
@@ -148,11 +153,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("tracer"):
             tracer = Tracer(scene.positions, scene.indices)
         offset = ray_offsets(scene, patches)
-        origins = texel_points(scene, patches, settings.texel_samples) + (offset[:, None] * patches.normal)[:, None]
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
-            direct = direct_light(origins, patches.normal, scene.lights, tracer, settings.falloff,
-                                  sun_angle, settings.sun_samples)
+            direct = direct_light(texel_points(scene, patches, settings.texel_samples), patches.normal,
+                                  scene.lights, tracer, settings.falloff, sun_angle, settings.sun_samples, offset)
         rays_direct = tracer.rays_traced
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
         gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
@@ -161,8 +165,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
 
             gatherer.cluster = RayCluster(settings.ray)
         budget = min(settings.max_memory, available_memory() or settings.max_memory)
-        keep = estimate_matrix_bytes(len(patches), gatherer.rays_per_patch) <= budget
-        ff = FormFactors(gatherer, keep)
+        ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
@@ -196,10 +199,11 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "rays_regather": ff.rays_regathered,
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
-        "form_factor_matrix": {"kept": keep, "nonzeros": ff.nnz, "bytes": ff.nbytes},
+        "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
-        "converged": solution.changes[-1] < settings.tolerance,
+        "change_to_come": change_to_come(solution.changes),
+        "converged": change_to_come(solution.changes) < settings.tolerance,
         "seconds_per_stage": dict(progress.seconds),
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,

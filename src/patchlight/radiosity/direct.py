@@ -38,7 +38,7 @@ def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
 
 def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samples: int) -> np.ndarray:
     """(N, 3) incident light from a directional light with ray-traced (soft) shadows.
-    origins (N, K, 3): K points per texel; shadow ray j leaves from point j mod K."""
+    origins (N, K, 3): K shadow-ray origins per texel; shadow ray j leaves from point j mod K."""
     dirs = _sun_directions(light, angle, samples)
     k = origins.shape[1]
     rays = max(len(dirs), k)
@@ -52,38 +52,44 @@ def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samp
     return (visible_cos / rays)[:, None] * light.radiometric[None] / np.pi
 
 
-def local_light(origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
+def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
     """(N, 3) incident light from a point or spot light with ray-traced shadows, averaged
-    over the K points per texel of origins (N, K, 3). The falloff and cone are the runtime
-    models' own (shading.lights, the NumPy twin of the GLSL), so baked and real-time light agree."""
+    over the K points per texel of points (N, K, 3). The light is evaluated at the points
+    themselves; shadow rays leave from `origins` (N, K, 3), the points lifted. The
+    falloff and cone are the runtime models' own (shading.lights, the NumPy twin of the
+    GLSL), so baked and real-time light agree."""
     lamp = from_scene_light(light, falloff, f"light {light.name or light.kind!r}")
-    value = np.zeros((len(origins), 3))
-    for k in range(origins.shape[1]):
-        o = origins[:, k]
-        L, I = incident_light(lamp, o)
+    value = np.zeros((len(points), 3))
+    for k in range(points.shape[1]):
+        L, I = incident_light(lamp, points[:, k])
         strength = np.maximum(np.einsum("ij,ij->i", normals, L), 0.0)[:, None] * I
         lit = np.flatnonzero(strength.max(axis=1) > 0)
-        d = np.linalg.norm(lamp.position - o[lit], axis=1)
-        blocked = tracer.occluded(o[lit], L[lit], (d * (1 - 1e-4)).astype(np.float32))
+        to_lamp = lamp.position - origins[lit, k]
+        d = np.linalg.norm(to_lamp, axis=1)
+        blocked = tracer.occluded(origins[lit, k], to_lamp / d[:, None], (d * (1 - 1e-4)).astype(np.float32))
         value[lit] += np.where(blocked[:, None], 0.0, strength[lit])
-    return value / origins.shape[1]
+    return value / points.shape[1]
 
 
-def direct_light(origins: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
+def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
                  falloff: str = "inverse-square", sun_angle: float | None = None,
-                 sun_samples: int = 16) -> np.ndarray:
-    """(N, 3) f32 incident light I from every light, at points `origins` (N, 3), or (N, K, 3)
-    for K points spread over each texel, already lifted off their surfaces, with unit normals
-    (N, 3). sun_angle (radians) overrides each sun's."""
-    origins = np.asarray(origins, np.float64)
-    if origins.ndim == 2:
-        origins = origins[:, None, :]
+                 sun_samples: int = 16, lift=0.0) -> np.ndarray:
+    """(N, 3) f32 incident light I from every light at `points` (N, 3), or (N, K, 3) for K
+    points spread over each texel, with unit normals (N, 3). Shadow rays leave from the
+    points lifted by `lift` metres along the normal (a scalar or (N,)), so that they clear
+    their own surface; the light itself is evaluated on the surface. sun_angle (radians)
+    overrides each sun's."""
+    points = np.asarray(points, np.float64)
+    if points.ndim == 2:
+        points = points[:, None, :]
     normals = np.asarray(normals, np.float64)
-    total = np.zeros((len(origins), 3))
+    lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))[:, None, None]
+    origins = points + lift * normals[:, None]
+    total = np.zeros((len(points), 3))
     for light in lights:
         if light.kind == "directional":
             angle = light.angle if sun_angle is None else sun_angle
             total += sun_light(origins, normals, light, tracer, angle, sun_samples)
         else:
-            total += local_light(origins, normals, light, tracer, falloff)
+            total += local_light(points, origins, normals, light, tracer, falloff)
     return total.astype(np.float32)
