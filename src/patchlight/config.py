@@ -11,7 +11,8 @@
 | passes            | count         | 100            | upper bound on passes (1 = direct + sky only)                   |
 | tolerance         | ratio         | 1e-3           | stop when the largest relative change of a pass is below        |
 | adaptive          | bool          | True           | compute every 4th texel, refine where neighbours differ         |
-| accuracy          | ratio         | 0.98           | refinement threshold = accuracy ** spacing (0..1; 0.98)         |
+| first_accuracy    | ratio         | 0.5            | the sampler's first run, for the first passes (0..1; 0.5)       |
+| accuracy          | ratio         | 0.98           | final run: threshold = accuracy ** spacing (0..1; 0.98)         |
 | sun_samples       | rays / texel  | 16             | shadow rays over the sun's disc when its angle is > 0           |
 | texel_samples     | per axis      | 2              | direct light averaged over n x n points of each texel (1..4)    |
 | sun_angle         | degrees       | None           | override the sun's angular diameter (0 = hard; 0.53 real sun)   |
@@ -46,6 +47,7 @@ class BakeSettings:
     passes: int = 100
     tolerance: float = 1e-3
     adaptive: bool = True
+    first_accuracy: float = 0.5
     accuracy: float = 0.98
     sun_samples: int = 16
     texel_samples: int = 2
@@ -72,6 +74,7 @@ class BakeSettings:
             (isinstance(self.passes, int) and self.passes >= 1, "passes must be a whole number >= 1"),
             (number(self.tolerance) and self.tolerance > 0, "tolerance must be a positive number"),
             (number(self.accuracy) and 0 < self.accuracy < 1, "accuracy must lie between 0 and 1"),
+            (number(self.first_accuracy) and 0 < self.first_accuracy < 1, "first accuracy must lie between 0 and 1"),
             (isinstance(self.rays, int) and 1 <= self.rays <= 16384, "rays must be a whole number in 1..16384"),
             (isinstance(self.hemicube_size, int) and 2 <= self.hemicube_size <= 512 and self.hemicube_size % 2 == 0,
              "hemicube size must be an even number in 2..512"),

@@ -52,8 +52,13 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
     p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
-    p.add_argument("--tolerance", type=float, default=DEFAULTS.tolerance)
-    p.add_argument("--accuracy", type=float, default=DEFAULTS.accuracy)
+    p.add_argument("--tolerance", type=float, default=DEFAULTS.tolerance,
+                   help="stop when the largest relative change still to come is below (default %(default)s)")
+    p.add_argument("--accuracy", type=float, default=DEFAULTS.accuracy,
+                   help="adaptive sampling, final run: gather where neighbours differ by more than "
+                        "accuracy^spacing (default %(default)s)")
+    p.add_argument("--first-accuracy", type=float, default=DEFAULTS.first_accuracy,
+                   help="adaptive sampling, first run, for the first passes (default %(default)s)")
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
     p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
@@ -76,7 +81,7 @@ def settings_from_args(args) -> BakeSettings:
     settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
                             gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
-                            accuracy=args.accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
+                            accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
                             save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
     settings.validate()

@@ -112,14 +112,14 @@ def interpolate_in_order(G, status, targets, neighbours, computed, interpolated,
 
 
 @nb.njit(cache=True, nogil=True)
-def item_buffer_rows(seen, weights, sky_radiance, n_patches):
+def item_buffer_rows(seen, weights, sky_radiance):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
-    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order;
-    n_patches: N, the number of columns. Returns CSR (indptr (R+1,), indices, data; columns in
-    first-seen order, duplicates summed), the sky term (R, 3) and the share of each patch's
-    rays that hit back faces (R,).
+    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
+    Returns CSR (indptr (R+1,), indices, data; each row's columns ascending, duplicates
+    summed), the sky term (R, 3) and the share of each patch's rays that hit back faces (R,).
+    Scratch space is per row (D), never per patch, so it does not grow with the lightmap.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
@@ -128,31 +128,50 @@ def item_buffer_rows(seen, weights, sky_radiance, n_patches):
     data = np.empty(seen.shape[0], np.float32)
     sky = np.zeros((rows, 3), np.float32)
     back = np.zeros(rows, np.float32)
-    row_of_column = np.full(n_patches, -1, np.int64)  # last row that saw each patch ...
-    slot = np.empty(n_patches, np.int64)              # ... and where its entry is
     nnz = 0
     k_sky = 0
+    for r in range(rows):
+        row = seen[r * d:(r + 1) * d]
+        for j in range(d):  # sky and back faces, in ray order (sky_radiance's order)
+            if row[j] == SKY:
+                for c in range(3):
+                    sky[r, c] += weights[j] * sky_radiance[k_sky, c]
+                k_sky += 1
+            elif row[j] == BACK_FACE:
+                back[r] += 1.0
+        back[r] /= d
+        order = np.argsort(row, kind="mergesort")
+        last = -1
+        for j in order:  # patches, ascending: equal ids are neighbours, summed into one entry
+            s = row[j]
+            if s < 0:
+                continue
+            if s != last:
+                indices[nnz] = s
+                data[nnz] = weights[j]
+                nnz += 1
+                last = s
+            else:
+                data[nnz - 1] += weights[j]
+        indptr[r + 1] = nnz
+    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back
+
+
+@nb.njit(cache=True, nogil=True)
+def item_buffer_times(seen, weights, B):
+    """(R, 3) f32: each of R patches' weighted sum of the excident light B (N, 3) of the
+    patches its D rays see (seen: (R * D,) as item_buffer_rows takes it), the row of F B
+    straight from the item buffer, without storing F."""
+    d = weights.shape[0]
+    rows = seen.shape[0] // d
+    out = np.zeros((rows, 3), np.float32)
     for r in range(rows):
         for j in range(d):
             s = seen[r * d + j]
             if s >= 0:
-                if row_of_column[s] == r:
-                    data[slot[s]] += weights[j]
-                else:
-                    row_of_column[s] = r
-                    slot[s] = nnz
-                    indices[nnz] = s
-                    data[nnz] = weights[j]
-                    nnz += 1
-            elif s == SKY:
                 for c in range(3):
-                    sky[r, c] += weights[j] * sky_radiance[k_sky, c]
-                k_sky += 1
-            elif s == BACK_FACE:
-                back[r] += 1.0
-        indptr[r + 1] = nnz
-        back[r] /= d
-    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back
+                    out[r, c] += weights[j] * B[s, c]
+    return out
 
 
 @nb.njit(cache=True, parallel=True)

@@ -5,8 +5,11 @@ examines texels halfway between two decided texels (horizontally or vertically),
 Type 2 the centre of four. A texel gets its own gather only when its neighbours' ratio falls
 below threshold = accuracy ** spacing in any channel; otherwise it is their mean. Texels
 whose neighbours are uncovered, in another UV chart or inside geometry are always computed,
-so nothing is interpolated across chart borders; a texel whose neighbours all lie inside
-geometry is itself marked inside.
+so nothing is interpolated across chart borders or from darkness inside walls.
+
+As the article suggests, the sampler runs twice: first at a low accuracy (0.5) for the first
+passes, then, on the solution those passes give, at the final accuracy (0.98). The second
+run decides every interpolated texel again; computed texels keep their gather.
 
 What is interpolated is the gathered light G = S + F B (sky and bounces). Direct light is
 ray traced at every texel, so sun-shadow edges stay sharp whatever the sampler decides.
@@ -83,7 +86,6 @@ def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float) -> np
     G: (N, 3) current gathered light of every decided patch."""
     nbs = step.neighbours
     nb_status = np.where(nbs >= 0, status[np.maximum(nbs, 0)], -1)
-    all_inside = np.all(nb_status == INSIDE, axis=1)
     usable = np.all((nb_status == COMPUTED) | (nb_status == INTERPOLATED), axis=1)
     threshold = accuracy ** step.spacing
     g = G[np.maximum(nbs, 0)]  # (K, m, 3)
@@ -92,11 +94,15 @@ def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float) -> np
     for i, j in pairs:
         similar &= np.all(ratio(g[:, i], g[:, j]) > threshold, axis=1)
     pending = status[step.targets] == UNDECIDED
-    status[step.targets[pending & all_inside]] = INSIDE
-    status[step.targets[pending & ~all_inside & usable & similar]] = INTERPOLATED
-    compute = step.targets[pending & ~all_inside & ~(usable & similar)]
+    status[step.targets[pending & usable & similar]] = INTERPOLATED
+    compute = step.targets[pending & ~(usable & similar)]
     status[compute] = COMPUTED
     return compute
+
+
+def reopen(status: np.ndarray) -> None:
+    """Mark every interpolated texel undecided again, for the sampler's next run."""
+    status[status == INTERPOLATED] = UNDECIDED
 
 
 def flatten(phases: list[list[Step]]) -> tuple[np.ndarray, np.ndarray]:

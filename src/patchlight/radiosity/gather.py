@@ -65,10 +65,13 @@ class Gatherer:
         golden = 0.6180339887498949
         return (2 * np.pi) * np.modf((rows.astype(np.float64) + self.seed) * golden)[0]
 
+    def _chunks(self, rows: np.ndarray) -> list[np.ndarray]:
+        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_patch)
+        return [rows[s:s + per_chunk] for s in range(0, len(rows), per_chunk)]
+
     def gather(self, rows: np.ndarray, progress=None) -> GatherRows:
         """Trace and resolve the rays of patches `rows` (R,) into their F rows and sky term."""
-        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_patch)
-        chunks = [rows[s:s + per_chunk] for s in range(0, len(rows), per_chunk)]
+        chunks = self._chunks(rows)
         if self.cluster is not None:
             parts = self.cluster.gather(self, chunks, progress)
         else:
@@ -81,20 +84,33 @@ class Gatherer:
                           np.concatenate([p.back_fraction for p in parts]),
                           sum(p.lost for p in parts))
 
-    def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
-        """One chunk's rows (the unit of work a Ray task runs)."""
-        p, d = self.patches, self.rays_per_patch
+    def product(self, rows: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """(R, 3) the rows `rows` of F B, traced again chunk by chunk and never stored: the
+        re-gathering pass of a bake whose F does not fit in memory (runs here, not on Ray)."""
+        B = np.ascontiguousarray(B, np.float32)
+        parts = self.tracer.map(lambda chunk: _kernels.item_buffer_times(self._see(chunk)[0], self.weights, B),
+                                self._chunks(rows))
+        return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
+
+    def _see(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The item buffer of patches `rows`: (R * D,) patch id or SKY / BACK_FACE / LOST per
+        ray, and the rays' directions (R * D, 3)."""
+        p = self.patches
         origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
                                            self.dirs, self._angles(rows))
         hits = self.tracer.intersect_chunk(origins, dirs)
-        seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
-                                     p.width, p.height, p.index)
+        return _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
+                                     p.width, p.height, p.index), dirs
+
+    def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
+        """One chunk's rows (the unit of work a Ray task runs)."""
+        seen, dirs = self._see(rows)
         sky = seen == _kernels.SKY
         radiance = np.zeros((int(sky.sum()), 3), np.float32)
         if self.sky is not None and len(radiance):
             radiance = self.sky.radiance(dirs[sky]).astype(np.float32)
-        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance, len(p))
-        F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(p)))
+        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
         if progress is not None:
             progress(len(rows))
         return GatherRows(F, S, back, int(np.count_nonzero(seen == _kernels.LOST)))
