@@ -92,6 +92,16 @@ def sphere_target(lat=32, lon=64, lights=(), material=None, sky=None) -> Target:
     return Target.from_scene(scene)
 
 
+def closed_sphere_under_a_sun(camera: dict | None = None, lat=16, lon=32) -> Target:
+    """A closed single-sided sphere, a sun and no sky (`patchlight view sphere.glb`): its
+    bounding-box centre is inside it. camera: the scene's own {eye, target, fov}, if any."""
+    sun = Light("directional", np.ones(3, np.float32), 3.0, direction=np.array([0.0, -1.0, 0.0], np.float32))
+    target = sphere_target(lat, lon, [sun])
+    if camera is not None:
+        target.scene.extras = {"camera": camera}
+    return target
+
+
 def color_texture(size=32) -> np.ndarray:
     """(size, 2 size, 4) linear RGBA: smooth colour bands, alpha (gloss) high in the top half."""
     y, x = np.mgrid[0:size, 0:2 * size] + 0.5

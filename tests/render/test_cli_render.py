@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from render_scenes import showcase_scene
+from render_scenes import closed_sphere_under_a_sun, showcase_scene
 
 from patchlight.cli.main import main
 from patchlight.imaging.exposure import exposed_png_pixels
@@ -82,6 +82,39 @@ def test_envmap_from_a_point_in_the_scene_differs_from_the_sky(scene_file, tmp_p
     assert main(["render", *base, "--envmap-from", "0,0.5,2.5", "-o", str(room)]) == 0
     assert np.abs(read_exr(sky) - read_exr(room)).max() > 0.01
     assert main(["render", *base, "--envmap-from", "0,0,0", "-o", str(room)]) == 2  # inside the sphere
+
+
+def test_inside_geometry_messages_name_the_option_to_change(scene_file, tmp_path, capsys):
+    out = tmp_path / "x.png"
+    base = ["render", str(scene_file), "--model", "envmap", "--size", "8x8", "-o", str(out)]
+    assert main([*base, "--camera", *CAMERA, "--envmap-from", "0,0,0"]) == 2
+    assert "--envmap-from 0,0,0 is inside geometry" in capsys.readouterr().err
+    assert main([*base, "--camera", "0,0,0", "0,0,-1", "45"]) == 2
+    assert "--camera" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def closed_sphere_file(tmp_path_factory):
+    """sphere.glb: a closed single-sided sphere under a sun, no sky (its centre is inside it)."""
+    path = tmp_path_factory.mktemp("sphere") / "sphere.glb"
+    save_baked_glb(closed_sphere_under_a_sun(lat=12, lon=24).scene, path)
+    return path
+
+
+@pytest.mark.parametrize("model", ["lambert", "envmap", "hemisphere-radiosity"])
+def test_a_closed_object_without_a_sky_renders_with_every_model_that_reads_the_environment(
+        closed_sphere_file, tmp_path, model):
+    out = tmp_path / "sphere.exr"
+    assert main(["render", str(closed_sphere_file), "--model", model, "--size", "16x16", "-o", str(out)]) == 0
+    assert read_exr(out).max() > 0
+
+
+def test_a_camera_behind_the_cornell_boxs_back_wall_is_outside(tmp_path):
+    """The audit's case: outside the box, behind its single-sided back wall, which the viewer culls."""
+    out = tmp_path / "cornell.exr"
+    assert main(["render", "cornell", "--camera", "0.278,0.27,1.5", "0.278,0.27,0", "40", "--size", "16x16",
+                 "-o", str(out)]) == 0
+    assert read_exr(out).max() > 0
 
 
 def test_envmap_from_reaches_hemisphere_radiosity_too(scene_file, tmp_path):

@@ -208,5 +208,10 @@ def test_envmap_rendered_from_a_point_sees_the_lit_walls_and_the_suns_highlight(
     np.testing.assert_allclose(cube[3, ..., :3], 0.3 + 1.0, atol=1e-6)  # -Y face sees the floor: A + I N.L
     assert cube[..., 3].max() == pytest.approx(1.0, abs=0.01)  # luminance of I = 1 at the sun
     assert np.argmax(cube[..., 3].reshape(6, -1).max(axis=1)) == 2  # on the +Y face
-    with pytest.raises(PatchlightError, match="inside geometry"):
-        Renderer(target, envmap_from=(5.0, 0.0, 0.0)).environment(settings)  # outside: sees the box's backs
+    # outside the box, looking at it, a point sees through the near wall's back (culled, as in
+    # the viewer) the inside of the far wall; looking away, nothing (no sky)
+    outside = Renderer(target, envmap_from=(5.0, 0.0, 0.0)).environment(settings, size=9)
+    np.testing.assert_allclose(outside[1, 4, 4, :3], 0.3, atol=1e-6)  # -X: the far wall, ambient only
+    assert outside[0, ..., :3].max() == 0  # +X: away from the box
+    with pytest.raises(PatchlightError, match="--envmap-from 0,0,0 is inside geometry"):
+        Renderer(sphere_target(8, 16), envmap_from=(0.0, 0.0, 0.0)).environment(settings)

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 from browser_support import three_missing
-from render_scenes import showcase_target
+from render_scenes import closed_sphere_under_a_sun, showcase_target
 
 from patchlight.errors import PatchlightError
 from patchlight.imaging.io import encode_png
@@ -87,6 +87,28 @@ def test_the_page_gets_the_cpu_renderers_environment(bake_like, envmap_from):
     with make_server(bake_like, settings, exposure=1.0, envmap_from=envmap_from) as srv:
         _, env = bundled_env(srv)
     np.testing.assert_array_equal(env, Renderer(bake_like, envmap_from).environment(settings))
+
+
+@pytest.mark.parametrize("model", ["lambert", "envmap"])
+def test_a_closed_object_without_a_sky_is_served_for_every_model(model):
+    """`patchlight view sphere.glb`: the environment cube comes from the default camera's eye,
+    outside the sphere, whichever model the page starts with."""
+    target = closed_sphere_under_a_sun()
+    with make_server(target, target_settings(target, model=model)) as srv:
+        manifest, env = bundled_env(srv)
+    assert manifest["env_note"] is None and env[..., :3].max() > 0
+    np.testing.assert_array_equal(env, Renderer(target).environment(target_settings(target)))
+
+
+def test_without_any_point_for_the_environment_the_page_gets_a_note_naming_the_options():
+    """The scene's own camera inside the sphere too: no point for the cube. A model that does
+    not read it is served (a black cube and a note); envmap is refused in one line."""
+    target = closed_sphere_under_a_sun({"eye": [0.0, 0.0, 0.5], "target": [0.0, 0.0, -1.0], "fov": 45.0})
+    with make_server(target, target_settings(target, model="lambert"), exposure=1.0) as srv:
+        manifest, env = bundled_env(srv)
+    assert env.max() == 0 and "--envmap-from" in manifest["env_note"] and "--sky" in manifest["env_note"]
+    with pytest.raises(PatchlightError, match="--envmap-from"):
+        make_server(target, target_settings(target, model="envmap"), exposure=1.0)
 
 
 @pytest.mark.parametrize("path", [

@@ -66,7 +66,9 @@ def register(sub) -> None:
     p.add_argument("--exposure", default="auto", metavar="K",
                    help="PNG display value 1 - exp(-K radiance), or auto (default)")
     p.add_argument("--envmap-from", metavar="X,Y,Z",
-                   help="envmap model: render the cube map from this point (default: from the sky)")
+                   help="envmap and hemisphere-radiosity models: render the cube map from this point "
+                        "(default: the sky; without one, the scene's centre, or the default camera's eye "
+                        "when the centre is inside an object)")
     add_shading_options(p)
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png|OUT.exr")
     p.set_defaults(func=run)

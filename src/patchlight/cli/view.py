@@ -28,7 +28,8 @@ def register(sub) -> None:
     p.add_argument("--model", choices=MODELS, default=None,
                    help="model shown first (default: lightmap for a bake, else lambert)")
     p.add_argument("--exposure", default="auto", metavar="K", help="initial exposure K, or auto")
-    p.add_argument("--envmap-from", metavar="X,Y,Z", help="render the envmap's cube map from this point")
+    p.add_argument("--envmap-from", metavar="X,Y,Z",
+                   help="render the envmap's cube map from this point (default: as for render)")
     add_shading_options(p)
     p.set_defaults(func=run)
 

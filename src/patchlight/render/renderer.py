@@ -20,9 +20,11 @@ from ..shading.textures import cube_directions
 from .camera import Camera, interior_cameras, overview_camera, scene_camera
 from .target import Target
 
-INSIDE_FRACTION = 0.5  # above this share of hits on single-sided back faces, the eye is inside geometry
+INSIDE_FRACTION = 0.5  # a point is inside geometry when more than this share of ALL directions from it
+#                        first meet the back of a single-sided surface (inside a closed object: all of
+#                        them; behind one wall of a box: the small solid angle the box covers)
 ENCLOSED_FRACTION = 0.75  # a centre whose probe rays hit this often is in a room (a box open on one side: 5/6)
-PROBE_RAYS = 1024  # rays per probe when choosing a default camera
+PROBE_RAYS = 1024  # rays per probe of a point (inside geometry? enclosed?)
 MAX_PASS_THROUGH = 16  # single-sided back faces one ray may pass through before it stops
 ENV_MODELS = ("envmap", "hemisphere-radiosity")  # the models that read the environment cube
 
@@ -38,7 +40,8 @@ class RenderResult:
 class Renderer:
     """Renders one Target with any settings and camera; keeps the Embree scene and the
     environment cube between calls. envmap_from (3,): where the envmap and hemisphere-radiosity
-    models' environment cube is rendered from, or None for the scene's sky (`environment`)."""
+    models' environment cube is rendered from, or None for the scene's sky, else a point of
+    the renderer's choosing (`environment_point`)."""
 
     def __init__(self, target: Target, envmap_from=None):
         self.target = target
@@ -54,16 +57,11 @@ class Renderer:
 
     # ------------------------------------------------------------------ rays
 
-    def trace(self, origins: np.ndarray, directions: np.ndarray, where: str) -> Hits:
+    def trace(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """Closest visible hit of each ray: back faces of single-sided surfaces are passed
-        through, as the GPU culls them. Raises PatchlightError when most hits start on such
-        back faces: then the eye (`where`) is inside geometry."""
+        through, as the GPU culls them."""
         hits = self.tracer.intersect(origins, directions)
         culled = self._culled(hits)
-        share = self._culled_share(hits, culled)
-        if share > INSIDE_FRACTION:
-            raise PatchlightError(f"{where} is inside geometry: {100 * share:.0f}% of its rays that hit a "
-                                  f"surface meet the back of a single-sided one")
         travelled = np.zeros(len(origins), np.float32)
         for _ in range(MAX_PASS_THROUGH):
             redo = np.flatnonzero(culled)
@@ -78,27 +76,46 @@ class Renderer:
         hits.tri[culled] = -1
         return hits
 
-    @staticmethod
-    def _culled_share(hits: Hits, culled: np.ndarray) -> float:
-        n_hit = int(np.count_nonzero(hits.tri >= 0))
-        return float(np.count_nonzero(culled)) / n_hit if n_hit else 0.0
+    # ------------------------------------------------------------------ inside geometry
+
+    def _probe(self, point) -> Hits:
+        """First hits of PROBE_RAYS rays from `point` (3,) spread evenly over the sphere."""
+        dirs = _sphere_directions(PROBE_RAYS)
+        return self.tracer.intersect(np.broadcast_to(np.asarray(point, np.float32), dirs.shape), dirs)
+
+    def inside_share(self, point) -> float:
+        """The share of all directions from `point` (3,) whose first hit is the back of a
+        single-sided surface: 1 inside a closed object or a solid wall, small outside."""
+        return float(np.count_nonzero(self._culled(self._probe(point)))) / PROBE_RAYS
+
+    def is_inside(self, point) -> bool:
+        """`point` lies inside geometry: most directions from it meet single-sided back faces.
+        The one test for the camera's eye, the environment map's centre and default_camera."""
+        return self.inside_share(point) > INSIDE_FRACTION
+
+    def require_outside(self, point, where: str, remedy: str = "") -> None:
+        """PatchlightError (one line, `where` names the point, `remedy` the way out) when
+        `point` is inside geometry."""
+        share = self.inside_share(point)
+        if share > INSIDE_FRACTION:
+            raise PatchlightError(f"{where} is inside geometry: {100 * share:.0f}% of the directions from it "
+                                  f"meet the back of a single-sided surface{remedy}")
 
     def default_camera(self) -> Camera:
         """The scene's own camera; else, when the scene's centre is enclosed (a room, a box
-        open on one side), a view from near a wall that is not inside geometry; else an
+        open on one side), a view from near a wall whose eye is not inside geometry; else an
         overview from outside."""
         camera = scene_camera(self.target.scene)
         if camera is not None:
             return camera
         lo, hi = self.target.scene.bounds()
-        dirs = _sphere_directions(PROBE_RAYS)
-        hits = self.tracer.intersect(np.broadcast_to(self.center, dirs.shape), dirs)
-        hit_share = np.count_nonzero(hits.tri >= 0) / len(dirs)
-        enclosed = hit_share >= ENCLOSED_FRACTION and self._culled_share(hits, self._culled(hits)) <= INSIDE_FRACTION
+        hits = self._probe(self.center)
+        hit_share = np.count_nonzero(hits.tri >= 0) / PROBE_RAYS
+        inside = np.count_nonzero(self._culled(hits)) / PROBE_RAYS > INSIDE_FRACTION
+        enclosed = hit_share >= ENCLOSED_FRACTION and not inside
         candidates = (interior_cameras(lo, hi) if enclosed else []) + [overview_camera(lo, hi)]
         for camera in candidates:
-            probe = self.tracer.intersect(*camera.rays(32, 32))
-            if self._culled_share(probe, self._culled(probe)) <= INSIDE_FRACTION:
+            if not self.is_inside(camera.eye):
                 return camera
         return candidates[-1]
 
@@ -151,14 +168,16 @@ class Renderer:
         return lighting, pair_of_corner
 
     def shade_rays(self, settings: ShadingSettings, origins: np.ndarray, directions: np.ndarray,
-                   where: str) -> tuple[np.ndarray, np.ndarray]:
-        """Radiance (N, 3) and covered (N,) along rays that all start at origins[0]."""
+                   where: str, remedy: str = "") -> tuple[np.ndarray, np.ndarray]:
+        """Radiance (N, 3) and covered (N,) along rays that all start at origins[0]; a
+        PatchlightError naming `where` (and `remedy`) when that point is inside geometry."""
         settings.validate()
         eye = np.asarray(origins[0], np.float32)
         self.require_inputs(settings)
+        self.require_outside(eye, where, remedy)
         env = self.environment(settings) if settings.model in ENV_MODELS else None
         materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
-        hits = self.trace(origins, directions, where)
+        hits = self.trace(origins, directions)
         frags = self.fragments(hits, settings, eye, materials)
         covered = hits.tri >= 0
         radiance = np.zeros((len(origins), 3), np.float32)
@@ -171,7 +190,7 @@ class Renderer:
         """Linear radiance seen by `camera` on a width x height image."""
         origins, directions = camera.rays(width, height)
         where = "the camera at ({:g}, {:g}, {:g})".format(*camera.eye)
-        radiance, covered = self.shade_rays(settings, origins, directions, where)
+        radiance, covered = self.shade_rays(settings, origins, directions, where, " (choose another with --camera)")
         return RenderResult(radiance.reshape(height, width, 3), covered.reshape(height, width))
 
     def require_inputs(self, settings: ShadingSettings) -> None:
@@ -190,9 +209,9 @@ class Renderer:
     def environment(self, settings: ShadingSettings, size: int = ENV_SIZE) -> np.ndarray:
         """The environment cube map (6, size, size, 4) of the envmap and hemisphere-radiosity
         models, made once per set of lights and surroundings: the scene's sky when it has one
-        and no envmap_from was given, else the scene seen from envmap_from (default: its
-        centre) with the lightmap model (a bake) or Lambert, the sky or black behind. A holds
-        the suns' highlight (shading.environment.light_highlight)."""
+        and no envmap_from was given, else the scene seen from `environment_point()` with the
+        lightmap model (a bake) or Lambert, the sky or black behind. A holds the suns'
+        highlight (shading.environment.light_highlight)."""
         key = (size, repr([light.to_json() for light in settings.lights]),
                *(np.asarray(v, np.float32).tobytes() for v in (settings.ambient, settings.sky, settings.ground)))
         if key not in self._environments:
@@ -207,16 +226,36 @@ class Renderer:
         sky = self.target.scene.sky
         return None if sky is None else environment_from_sky(sky, [], size)
 
+    def environment_point(self) -> np.ndarray:
+        """(3,) where the environment cube is rendered from when it is not the sky:
+        envmap_from when given; else the scene's centre, or, when that is inside geometry (a
+        closed object such as a single-sided sphere), the default camera's eye. A
+        PatchlightError naming --envmap-from and --sky when the point is inside geometry."""
+        if self.envmap_from is not None:
+            where = "--envmap-from {:g},{:g},{:g}".format(*self.envmap_from)
+            self.require_outside(self.envmap_from, where, "; choose a point in the open")
+            return self.envmap_from
+        if not self.is_inside(self.center):
+            return self.center
+        eye = np.asarray(self.default_camera().eye, np.float32)
+        if self.is_inside(eye):
+            raise PatchlightError("the environment map: the scene's centre ({:g}, {:g}, {:g}) and the default "
+                                  "camera's eye ({:g}, {:g}, {:g}) are inside geometry; render it from a point in "
+                                  "the open with --envmap-from X,Y,Z or reflect a sky (--sky R,G,B)"
+                                  .format(*self.center, *eye))
+        return eye
+
     def _make_environment(self, settings: ShadingSettings, size: int) -> np.ndarray:
         if self.sky_is_environment:
             return environment_from_sky(self.target.scene.sky, settings.lights, size)
-        point = self.center if self.envmap_from is None else self.envmap_from
+        point = self.environment_point()
         dirs = cube_directions(size).reshape(-1, 3)
         inner = ShadingSettings(model="lightmap" if self.target.lightmap is not None else "lambert",
                                 lights=settings.lights, ambient=settings.ambient, sky=settings.sky,
                                 ground=settings.ground)
         where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
-        radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where)
+        radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where,
+                                      "; choose one with --envmap-from X,Y,Z or reflect a sky (--sky R,G,B)")
         alpha = light_highlight(dirs, settings.lights)
         return np.concatenate([radiance, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)
 

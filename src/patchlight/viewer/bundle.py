@@ -10,9 +10,9 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
     lights, settings, camera, bounds, lightmap, pictures, max_lights,
-    env (the environment cube), sky (the cube drawn behind the scene: "env" when the
-                environment is the sky, its own cube when the environment was rendered from a
-                point, null without a sky),
+    env (the environment cube), env_note (why env is a black stand-in, or null),
+    sky (the cube drawn behind the scene: "env" when the environment is the sky, its own
+                cube when the environment was rendered from a point, null without a sky),
     ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer),
     volume (the ambient-cube model's light volume: patchlight.volumes.viewer)
 """
@@ -55,10 +55,10 @@ class _Packer:
 
 
 def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env: np.ndarray,
-                 exposure: float, sky: np.ndarray | None = None) -> tuple[dict, bytes]:
+                 exposure: float, sky: np.ndarray | None = None, env_note: str | None = None) -> tuple[dict, bytes]:
     """(manifest, data) for the page: see the module docstring. env: the environment cube
     (6, S, S, 4); sky: the cube of the sky drawn behind the scene (`env` itself when the
-    environment is the sky), or None for no sky."""
+    environment is the sky), or None for no sky; env_note: why env is a stand-in, or None."""
     s = target.surface
     pack = _Packer()
     for name in ("positions", "normals", "tangents", "uv0", "uv1", "colors"):
@@ -97,6 +97,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "bounds": [lo, hi],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
         "env": pack.add("env", env),
+        "env_note": env_note,
         "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
         "pictures": target.bake_pictures(),
         "max_lights": MAX_LIGHTS,
