@@ -42,9 +42,12 @@ def server(bake_like):
         yield srv
 
 
-def get(server: ViewerServer, path: str, method: str = "GET") -> tuple[int, bytes]:
+def get(server: ViewerServer, path: str, method: str = "GET", host: str | None = "") -> tuple[int, bytes]:
+    """host "": the Host header http.client sends (127.0.0.1:PORT); None: no Host header."""
     conn = http.client.HTTPConnection("127.0.0.1", server.httpd.server_address[1], timeout=10)
-    conn.putrequest(method, path, skip_accept_encoding=True)
+    conn.putrequest(method, path, skip_accept_encoding=True, skip_host=host != "")
+    if host:
+        conn.putheader("Host", host)
     conn.endheaders()
     response = conn.getresponse()
     body = response.read()
@@ -123,6 +126,19 @@ def test_refuses_everything_else(server, path):
     status, body = get(server, path)
     assert status == 404, path
     assert b"root:" not in body and b"not for the browser" not in body
+
+
+def test_only_requests_addressed_to_the_server_itself_are_answered(server):
+    """DNS rebinding: a page of evil.example whose name now resolves to 127.0.0.1 sends
+    Host: evil.example; it must not read the scene."""
+    port = server.httpd.server_address[1]
+    for host in (f"127.0.0.1:{port}", f"localhost:{port}", f"LocalHost:{port}"):
+        assert get(server, "/scene/manifest.json", host=host)[0] == 200, host
+    for host in ("evil.example", f"evil.example:{port}", f"127.0.0.1:{port + 1}", "127.0.0.1", "localhost",
+                 f"127.0.0.1.evil.example:{port}", f"localhost:{port}@evil.example", None):
+        for path in ("/scene/manifest.json", "/scene/data.bin", "/", "/scene/files/lightmap.png"):
+            status, body = get(server, path, host=host)
+            assert status == 403 and b"arrays" not in body, (host, path)
 
 
 def test_head_works_and_other_methods_do_not(server):

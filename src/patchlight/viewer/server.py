@@ -5,6 +5,10 @@ build files the page imports (from the repository's node_modules/three), the sce
 (/scene/manifest.json, /scene/data.bin) and the bake's lightmap-space pictures
 (/scene/files/<name>). Any other path (.., absolute paths, encoded traversal, symlinks that
 lead out of the served directory, files not on the list) gets 404.
+
+Only requests addressed to the server itself are answered: a Host header other than
+127.0.0.1:PORT or localhost:PORT (or none) gets 403, so a page of another site whose name
+was rebound to 127.0.0.1 (DNS rebinding) cannot read the scene.
 """
 from __future__ import annotations
 
@@ -79,6 +83,16 @@ class ViewerServer:
     def url(self) -> str:
         return f"http://{HOST}:{self.httpd.server_address[1]}/"
 
+    def host_allowed(self, host: str | None) -> bool:
+        """Whether a request's Host header names this server: 127.0.0.1 or localhost with its
+        port (browsers leave the port out only when it is 80)."""
+        if not host:
+            return False
+        port = self.httpd.server_address[1]
+        names = (HOST, "localhost")
+        allowed = {f"{name}:{port}" for name in names} | (set(names) if port == 80 else set())
+        return host.strip().lower() in allowed
+
     def resolve(self, path: str) -> tuple[bytes | Path | None, str]:
         """(body or file, content type) for a request path, or (None, "") for 404."""
         if path in ("/", "/index.html"):
@@ -138,6 +152,9 @@ class _Handler(BaseHTTPRequestHandler):
         self._respond(send_body=False)
 
     def _respond(self, send_body: bool) -> None:
+        if not self.viewer.host_allowed(self.headers.get("Host")):
+            self._send(HTTPStatus.FORBIDDEN, b"forbidden: unknown Host\n", "text/plain; charset=utf-8", send_body)
+            return
         try:
             body, content_type = self.viewer.resolve(urlsplit(self.path).path)
         except (UnicodeDecodeError, ValueError):
@@ -148,10 +165,12 @@ class _Handler(BaseHTTPRequestHandler):
             except OSError:  # gone or unreadable since it was checked
                 body = None
         if body is None:
-            body, content_type = b"not found\n", "text/plain; charset=utf-8"
-            self.send_response(HTTPStatus.NOT_FOUND)
+            self._send(HTTPStatus.NOT_FOUND, b"not found\n", "text/plain; charset=utf-8", send_body)
         else:
-            self.send_response(HTTPStatus.OK)
+            self._send(HTTPStatus.OK, body, content_type, send_body)
+
+    def _send(self, status: HTTPStatus, body: bytes, content_type: str, send_body: bool) -> None:
+        self.send_response(status)
         self.send_header("Content-Type", content_type)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
