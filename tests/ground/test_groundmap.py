@@ -10,7 +10,8 @@ from ground_scenes import GREY, I0, SKY, SUN_ES, fence, ground, patches, pole, s
 
 from patchlight.errors import PatchlightError
 from patchlight.ground.encode import rgb_to_hsv
-from patchlight.ground.files import block_compressed, decode_dds, load_ground_map, read_map_pixels, to_bytes
+from patchlight.ground.files import (block_compressed, decode_dds, decode_dds_bytes, encode_dds, load_ground_map,
+                                     read_map_pixels, to_bytes)
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
 from patchlight.ground.mapping import GroundArea, map_uv
 from patchlight.ground.viewer import open_ground_map_dir
@@ -220,6 +221,30 @@ def test_files_and_manifest(tmp_path, encoding, block):
     inputs = load_ground_map(tmp_path)
     assert inputs.encoding == encoding and inputs.map_scale == pytest.approx(manifest["map_scale"])
     assert np.array_equal(inputs.texture[..., :png.shape[-1]], png)
+
+
+DDSD_CAPS, DDSD_HEIGHT, DDSD_WIDTH, DDSD_PITCH, DDSD_PIXELFORMAT, DDSD_LINEARSIZE = 0x1, 0x2, 0x4, 0x8, 0x1000, 0x80000
+
+
+@pytest.mark.parametrize("width, height, channels, linear_size", [
+    (256, 256, 3, 256 * 256 // 2),          # BC1: 8 bytes per 4 x 4 block
+    (256, 256, 4, 256 * 256),               # BC3: 16 bytes per block
+    (30, 10, 3, 8 * 3 * 8),                 # partial blocks count whole
+    (2, 1, 4, 16),                          # at least one block
+])
+def test_the_dds_header_gives_the_top_levels_linear_size(width, height, channels, linear_size):
+    """DDS_HEADER: DDSD_LINEARSIZE set, DDSD_PITCH clear and dwPitchOrLinearSize the bytes of the
+    compressed top level, as strict loaders require."""
+    rng = np.random.default_rng(3)
+    pixels = rng.integers(0, 256, (height, width, channels), dtype=np.uint8)
+    data, block = encode_dds(pixels)
+    size, flags, h, w, pitch_or_linear = np.frombuffer(data[4:24], "<u4")
+    assert data[:4] == b"DDS " and size == 124 and (h, w) == (height, width)
+    assert data[84:88] == (b"DXT1" if channels == 3 else b"DXT5") and block == ("BC1" if channels == 3 else "BC3")
+    assert flags & DDSD_LINEARSIZE and not flags & DDSD_PITCH
+    assert flags & (DDSD_CAPS | DDSD_HEIGHT | DDSD_WIDTH | DDSD_PIXELFORMAT) == DDSD_CAPS | DDSD_HEIGHT | DDSD_WIDTH | DDSD_PIXELFORMAT
+    assert pitch_or_linear == linear_size == len(data) - 128
+    assert decode_dds_bytes(data).shape == (height, width, 4)          # still what Pillow reads
 
 
 def test_reopening_a_ground_map_directory_gives_exactly_the_written_map(tmp_path):

@@ -4,7 +4,8 @@ Texels are stored linear (no sRGB curve), row 0 the map's top row (v = 0, z = z0
 Block compression goes through Pillow's DDS encoder (the maintained one the project
 already depends on): BC1 (DXT1, 4 bits per texel) for RGB maps, BC3 (DXT5, 8 bits) for
 the alpha encoding; the separate encoding's shadow map is a grey BC1 image. Sizes that are
-not a multiple of 4 are padded by the encoder's edge blocks.
+not a multiple of 4 are padded by the encoder's edge blocks. Pillow's header gets the top
+level's linear size afterwards (`fix_dds_header`), as strict loaders expect.
 
 | file                 | what                                                              |
 |----------------------|-------------------------------------------------------------------|
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import io
 import json
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +52,33 @@ def encode_dds(pixels: np.ndarray) -> tuple[bytes, str]:
         Image.fromarray(np.ascontiguousarray(pixels)).save(buffer, format="DDS", pixel_format=fourcc)
     except (ValueError, OSError) as exc:  # Pillow < 11.2 cannot write block-compressed DDS
         raise PatchlightError(f"cannot block-compress the ground map ({exc}); Pillow >= 11.2 is needed") from exc
-    return buffer.getvalue(), {"DXT1": "BC1", "DXT5": "BC3"}[fourcc]
+    block = {"DXT1": "BC1", "DXT5": "BC3"}[fourcc]
+    return fix_dds_header(buffer.getvalue(), block), block
+
+
+# DDS_HEADER (after the 4-byte magic "DDS "): dwSize, dwFlags, dwHeight, dwWidth, dwPitchOrLinearSize
+# at byte offsets 4, 8, 12, 16, 20 (Microsoft's "DDS_HEADER structure").
+DDSD_PITCH = 0x8
+DDSD_LINEARSIZE = 0x80000
+BLOCK_BYTES = {"BC1": 8, "BC3": 16}  # bytes per 4 x 4 block
+
+
+def dds_linear_size(width: int, height: int, block: str) -> int:
+    """Bytes of the top level of a block-compressed image: max(1, ceil(w / 4)) x max(1, ceil(h / 4))
+    blocks (the DDS header's dwPitchOrLinearSize for compressed formats)."""
+    return max(1, (width + 3) // 4) * max(1, (height + 3) // 4) * BLOCK_BYTES[block]
+
+
+def fix_dds_header(data: bytes, block: str) -> bytes:
+    """`data` with DDSD_LINEARSIZE set, DDSD_PITCH cleared and dwPitchOrLinearSize the top
+    level's size. Pillow (13.0 at least) writes (width + 3) x 4 there, a row pitch of 8-bit RGBA,
+    which strict loaders reject for a compressed image."""
+    header = bytearray(data[:128])
+    flags, height, width = struct.unpack_from("<3I", header, 8)
+    flags = (flags | DDSD_LINEARSIZE) & ~DDSD_PITCH
+    struct.pack_into("<I", header, 8, flags)
+    struct.pack_into("<I", header, 20, dds_linear_size(width, height, block))
+    return bytes(header) + data[128:]
 
 
 def decode_dds(path) -> np.ndarray:
