@@ -300,6 +300,9 @@ def test_bad_input_says_what_and_where():
         make_groundmap(solved(b, lights), GroundMapSettings(size=20000))
     with pytest.raises(PatchlightError, match="--max-height"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=16, max_height=0))
+    for seed in (-1, 1.5, True):
+        with pytest.raises(PatchlightError, match=f"--seed {seed}: must be a whole number >= 0"):
+            make_groundmap(solved(b, lights), GroundMapSettings(size=16, seed=seed))
 
 
 def test_no_sun_turns_shadows_off_with_one_warning():

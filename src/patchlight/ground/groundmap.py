@@ -14,7 +14,7 @@ files (files.py).
 | max_height | metres      | 3.0     | leave out polygons higher above the ground (> 0; 2-5)         |
 | noise      | ratio       | 0.1     | random texel noise, per channel (0..1; the article's 10 %)    |
 | shadows    | str         | "hsv"   | "separate", "alpha" or "hsv" (encode.py)                      |
-| seed       | int         | 1       | noise seed                                                    |
+| seed       | int         | 1       | noise seed (>= 0)                                             |
 | offset     | metres      | 1.0     | runtime sample offset along the normal, recorded in the json  |
 | sun_angle  | degrees     | None    | the sun's angular diameter, as the bake's (None: the light's) |
 """
@@ -66,6 +66,8 @@ class GroundMapSettings:
             raise PatchlightError(f"--max-height {self.max_height}: must be a positive number of metres")
         if not 0 <= self.noise <= 1:
             raise PatchlightError(f"--noise {self.noise}: must lie between 0 and 1")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise PatchlightError(f"--seed {self.seed}: must be a whole number >= 0")
         if not (np.isfinite(self.offset) and self.offset >= 0):
             raise PatchlightError(f"--offset {self.offset}: must be a non-negative number of metres")
         if self.sun_angle is not None and not (np.isfinite(self.sun_angle) and 0 <= self.sun_angle < 90):
