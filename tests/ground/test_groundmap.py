@@ -303,6 +303,8 @@ def test_bad_input_says_what_and_where():
     for seed in (-1, 1.5, True):
         with pytest.raises(PatchlightError, match=f"--seed {seed}: must be a whole number >= 0"):
             make_groundmap(solved(b, lights), GroundMapSettings(size=16, seed=seed))
+    with pytest.raises(PatchlightError, match="--offset-mode sideways: choose from none, normal, side"):
+        make_groundmap(solved(b, lights), GroundMapSettings(size=16, offset_mode="sideways"))
 
 
 def test_no_sun_turns_shadows_off_with_one_warning():

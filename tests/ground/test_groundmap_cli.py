@@ -7,10 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from patchlight.cli.main import main
+from patchlight.cli.main import build_parser, main
+from patchlight.cli.render import load_target_and_settings
 from patchlight.ground.files import load_ground_map
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap
 from patchlight.ground.viewer import view_target
+from patchlight.imaging.io import read_exr
 from patchlight.solved import load_solved
 
 
@@ -76,6 +78,7 @@ def test_the_map_takes_the_bakes_sun_angle_unless_told_otherwise(tmp_path, capsy
     (["--area", "100,100,110,110"], "no ground under the area"),
     (["--noise", "2"], "--noise 2"),
     (["--seed", "-1"], "--seed -1: must be a whole number >= 0"),
+    (["--offset-distance", "-1"], "--offset-distance -1"),
 ])
 def test_bad_input_is_one_line_and_exit_2(baked, tmp_path, capsys, args, message):
     _, bake_dir = baked
@@ -115,6 +118,7 @@ def test_an_output_that_cannot_be_made_is_refused_before_any_work(baked, tmp_pat
     (lambda m: m.update(encoding="rgbm"), "encoding must be one of"),
     (lambda m: m.update(path=[[0, 0]]), "path must be null"),
     (lambda m: m.update(version=1), "ground map version 1"),
+    (lambda m: m.update(offset_mode="sideways"), "offset_mode must be one of none, normal, side"),
 ])
 def test_a_damaged_manifest_is_one_line_and_exit_2(baked, tmp_path, capsys, change, message):
     _, bake_dir = baked
@@ -127,3 +131,54 @@ def test_a_damaged_manifest_is_one_line_and_exit_2(baked, tmp_path, capsys, chan
     assert main(["render", str(out), "--model", "hemisphere-radiosity", "--size", "8x8", "-o", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err
     assert message in err and "groundmap.json" in err and err.count("\n") == 1
+
+
+# ------------------------------------------------------------------ offset mode and distance
+
+def render_exr(target, tmp_path, name, *extra) -> np.ndarray:
+    out = tmp_path / f"{name}.exr"
+    assert main(["render", str(target), "--model", "hemisphere-radiosity", "--size", "24x24", "-o", str(out),
+                 *extra]) == 0
+    return read_exr(out)
+
+
+def test_the_offset_mode_is_recorded_by_groundmap_and_chosen_by_render_and_view(baked, tmp_path, capsys):
+    _, bake_dir = baked
+    out = tmp_path / "map"
+    assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--quiet",
+                 "--offset-mode", "none", "--offset-distance", "2.5"]) == 0
+    manifest = json.loads((out / "groundmap.json").read_text())
+    assert manifest["offset_mode"] == "none" and manifest["offset"] == 2.5
+    stored = load_ground_map(out)
+    assert stored.offset_mode == "none" and stored.offset == 2.5
+    # render: the map's mode unless --offset-mode names another
+    default = render_exr(out, tmp_path, "default")
+    assert np.array_equal(default, render_exr(out, tmp_path, "none", "--offset-mode", "none"))
+    assert not np.array_equal(default, render_exr(out, tmp_path, "normal", "--offset-mode", "normal"))
+    # view builds its settings the same way
+    for extra, mode in (([], "none"), (["--offset-mode", "side"], "side")):
+        args = build_parser().parse_args(["view", str(out), *extra])
+        _, settings = load_target_and_settings(args, args.model)
+        assert settings.ground_map.offset_mode == mode and settings.ground_map.offset == 2.5
+
+
+def test_the_offset_flags_are_unambiguous(baked, tmp_path, capsys):
+    _, bake_dir = baked
+    assert main(["groundmap", str(bake_dir), "-o", str(tmp_path / "m"), "--offset", "2"]) == 2
+    assert "ambiguous option: --offset" in capsys.readouterr().err
+    assert main(["groundmap", str(bake_dir), "-o", str(tmp_path / "m"), "--offset-mode", "sideways"]) == 2
+    assert "invalid choice: 'sideways'" in capsys.readouterr().err
+    assert not (tmp_path / "m").exists()
+
+
+@pytest.mark.parametrize("command", ["render", "view"])
+def test_offset_mode_needs_a_ground_map_directory(baked, tmp_path, capsys, command):
+    _, bake_dir = baked
+    (bake_dir / "groundmap.json").rename(tmp_path / "kept.json")        # the bake alone
+    try:
+        extra = ["-o", str(tmp_path / "x.png")] if command == "render" else []
+        assert main([command, str(bake_dir), "--model", "hemisphere-radiosity", "--offset-mode", "side", *extra]) == 2
+    finally:
+        (tmp_path / "kept.json").rename(bake_dir / "groundmap.json")
+    err = capsys.readouterr().err
+    assert "--offset-mode side" in err and "not a ground map directory" in err and err.count("\n") == 1

@@ -23,6 +23,7 @@ LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this 
 def register(sub) -> None:
     from ..ground.encode import ENCODINGS
     from ..ground.groundmap import GroundMapSettings
+    from ..shading.hemisphere_radiosity import OFFSET_MODES
 
     d = GroundMapSettings()
     p = sub.add_parser("groundmap", help="bake a top-down radiosity ground map", description=__doc__,
@@ -37,8 +38,11 @@ def register(sub) -> None:
     p.add_argument("--shadows", choices=ENCODINGS, default=d.shadows,
                    help="separate maps, shadow in alpha, or folded into one RGB map (default %(default)s)")
     p.add_argument("--seed", type=int, default=d.seed, help="noise seed (default %(default)s)")
-    p.add_argument("--offset", type=float, default=d.offset, metavar="M",
-                   help="runtime sample offset along the normal, metres, recorded in the json (default %(default)s)")
+    p.add_argument("--offset-distance", type=float, default=d.offset, metavar="M",
+                   help="runtime sample offset distance, metres, recorded in the json (default %(default)s)")
+    p.add_argument("--offset-mode", choices=OFFSET_MODES, default=d.offset_mode, metavar="normal|side|none",
+                   help="runtime offset mode recorded in the json as render's and view's default: along the "
+                        "normal, its left-right part only, or none (default %(default)s)")
     p.add_argument("--texels-per-unit", type=float, metavar="T",
                    help=f"lightmap density when baking a scene here (default {DENSE_TEXELS_PER_UNIT:g}, "
                         f"or less so the level spans {LEVEL_TEXELS} texels)")
@@ -54,7 +58,8 @@ def settings_from_args(args):
 
     settings = GroundMapSettings(size=args.size, area=parse_area(args.area) if args.area else None,
                                  max_height=args.max_height, noise=args.noise, shadows=args.shadows,
-                                 seed=args.seed, offset=args.offset, sun_angle=args.sun_angle)
+                                 seed=args.seed, offset=args.offset_distance, offset_mode=args.offset_mode,
+                                 sun_angle=args.sun_angle)
     settings.validate()
     return settings
 

@@ -14,8 +14,9 @@ level's linear size afterwards (`fix_dds_header`), as strict loaders expect.
 | shadow.png/dds       | separate only: the shadow amount, grey                            |
 | variant_<enc>.png    | the same map in the two other encodings (variant_separate_shadow  |
 |                      | .png the separate one's shadow), for the viewer's live switch     |
-| groundmap.json       | mapping (U, V rows), area, encoding, map_scale, sky_scale, offset,|
-|                      | the variants' files and constants, the cars' path; written last   |
+| groundmap.json       | mapping (U, V rows), area, encoding, map_scale, sky_scale, offset |
+|                      | distance and mode, the variants' files and constants, the cars'   |
+|                      | path, the bake it lies over; written last                         |
 
 The variants are stored as PNG only: their block-compressed texels are the (deterministic)
 encoder's output for those PNG texels, so a reader makes them exactly as groundmap.dds was made.
@@ -32,7 +33,7 @@ from PIL import Image
 
 from ..errors import PatchlightError
 from ..imaging.io import decode_image, read_bytes, write_bytes, write_png
-from ..shading.hemisphere_radiosity import ENCODINGS, GroundMapInputs
+from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 
 MANIFEST = "groundmap.json"
 FORMAT = "patchlight-groundmap"
@@ -193,6 +194,8 @@ def check_manifest(manifest: dict, where) -> None:
     offset = manifest.get("offset", 1.0)
     if not (_numbers([offset]) and offset >= 0):
         bad("offset", "must be a non-negative number of metres")
+    if manifest.get("offset_mode", "normal") not in OFFSET_MODES:
+        bad("offset_mode", f"must be one of {', '.join(OFFSET_MODES)}")
     if not isinstance(manifest.get("size"), int) or not manifest["size"] > 0:
         bad("size", "must be a positive whole number")
     path = manifest.get("path")
@@ -225,8 +228,8 @@ def read_map_pixels(directory, name: str) -> np.ndarray:
 def load_ground_map(directory, block_compressed: bool = False, manifest: dict | None = None):
     """The hemisphere-radiosity model's inputs (shading.hemisphere_radiosity.GroundMapInputs)
     from a ground map directory: its PNG texels, or with block_compressed its DDS texels as
-    a GPU decodes them. The offset is the manifest's, in mode "normal". manifest: the
-    directory's, when already read."""
+    a GPU decodes them. The offset distance and mode are the manifest's (mode "normal" when it
+    names none). manifest: the directory's, when already read."""
     manifest = manifest or read_manifest(directory)
     kind = "dds" if block_compressed else "png"
     files = manifest["files"]
@@ -235,7 +238,8 @@ def load_ground_map(directory, block_compressed: bool = False, manifest: dict | 
                              V=np.asarray(manifest["mapping"]["V"], np.float32), encoding=manifest["encoding"],
                              map_scale=float(manifest["map_scale"]),
                              sky_scale=np.asarray(manifest["sky_scale"], np.float32),
-                             offset=float(manifest.get("offset", 1.0)))
+                             offset=float(manifest.get("offset", 1.0)),
+                             offset_mode=manifest.get("offset_mode", "normal"))
     if "shadow" in files:
         inputs.shadow = read_texels(directory, files["shadow"][kind]) / np.float32(255.0)
     inputs.validate()

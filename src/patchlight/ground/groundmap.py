@@ -15,7 +15,8 @@ files (files.py).
 | noise      | ratio       | 0.1     | random texel noise, per channel (0..1; the article's 10 %)    |
 | shadows    | str         | "hsv"   | "separate", "alpha" or "hsv" (encode.py)                      |
 | seed       | int         | 1       | noise seed (>= 0)                                             |
-| offset     | metres      | 1.0     | runtime sample offset along the normal, recorded in the json  |
+| offset     | metres      | 1.0     | runtime sample offset distance, recorded in the json          |
+| offset_mode| str         | "normal"| runtime offset mode "normal", "side" or "none", in the json   |
 | sun_angle  | degrees     | None    | the sun's angular diameter, as the bake's (None: the light's) |
 """
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numpy as np
 
 from ..errors import PatchlightError
 from ..rays.tracer import Tracer
+from ..shading.hemisphere_radiosity import OFFSET_MODES
 from ..solved import SolvedScene
 from . import encode as enc
 from ..imaging.io import staged_output, write_png
@@ -56,6 +58,7 @@ class GroundMapSettings:
     shadows: str = "hsv"
     seed: int = 1
     offset: float = 1.0
+    offset_mode: str = "normal"
     sun_angle: float | None = None
 
     def validate(self) -> None:
@@ -69,7 +72,9 @@ class GroundMapSettings:
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise PatchlightError(f"--seed {self.seed}: must be a whole number >= 0")
         if not (np.isfinite(self.offset) and self.offset >= 0):
-            raise PatchlightError(f"--offset {self.offset}: must be a non-negative number of metres")
+            raise PatchlightError(f"--offset-distance {self.offset}: must be a non-negative number of metres")
+        if self.offset_mode not in OFFSET_MODES:
+            raise PatchlightError(f"--offset-mode {self.offset_mode}: choose from {', '.join(OFFSET_MODES)}")
         if self.sun_angle is not None and not (np.isfinite(self.sun_angle) and 0 <= self.sun_angle < 90):
             raise PatchlightError(f"--sun-angle {self.sun_angle}: must lie in 0..90 degrees")
 
@@ -245,6 +250,7 @@ def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: d
         "sky_light": ground_map.sky_light,
         "variants": variants,
         "offset": s.offset,
+        "offset_mode": s.offset_mode,
         "side_vector": SIDE_VECTOR,
         "max_height": s.max_height,
         "noise": s.noise,

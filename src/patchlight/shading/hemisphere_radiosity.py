@@ -57,7 +57,8 @@ class GroundMapInputs:
         if self.offset_mode not in OFFSET_MODES:
             raise PatchlightError(f"--offset-mode {self.offset_mode}: choose from {', '.join(OFFSET_MODES)}")
         if not (np.isfinite(self.offset) and self.offset >= 0):
-            raise PatchlightError(f"--offset {self.offset}: must be a non-negative number of metres")
+            raise PatchlightError(f"ground map offset distance {self.offset}: must be a non-negative number of "
+                                  f"metres (groundmap --offset-distance)")
         if not (np.isfinite(self.map_scale) and self.map_scale > 0):
             raise PatchlightError(f"ground map scale {self.map_scale}: must be positive")
         side = np.asarray(self.side, np.float64)
