@@ -12,7 +12,7 @@ from patchlight.errors import PatchlightError
 from patchlight.ground.encode import rgb_to_hsv
 from patchlight.ground.files import (block_compressed, decode_dds, decode_dds_bytes, encode_dds, load_ground_map,
                                      read_map_pixels, to_bytes)
-from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, plan_groundmap, write_groundmap
 from patchlight.ground.mapping import GroundArea, map_uv
 from patchlight.ground.viewer import open_ground_map_dir
 from patchlight.scene.builtin import SceneBuilder
@@ -305,6 +305,25 @@ def test_bad_input_says_what_and_where():
             make_groundmap(solved(b, lights), GroundMapSettings(size=16, seed=seed))
     with pytest.raises(PatchlightError, match="--offset-mode sideways: choose from none, normal, side"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=16, offset_mode="sideways"))
+
+
+def test_a_plan_made_before_the_bake_is_used_only_for_the_same_level_and_settings():
+    b, lights = level()
+    level_scene = solved(b, lights)
+    settings = GroundMapSettings(size=16, area=AREA, noise=0.0)
+    plan = plan_groundmap(level_scene.scene, settings)
+    assert plan.fits(level_scene.scene, settings)
+    assert not plan.fits(level_scene.scene, GroundMapSettings(size=32, area=AREA, noise=0.0))
+    other = SceneBuilder()
+    ground(other, half=5.0)
+    assert not plan.fits(solved(other, lights).scene, settings)
+    fresh = make_groundmap(level_scene, settings)
+    assert np.array_equal(make_groundmap(level_scene, settings, plan).encoded.color, fresh.encoded.color)
+    # a plan of another level is not used
+    assert np.array_equal(make_groundmap(level_scene, settings, plan_groundmap(other.scene("o"), settings)).encoded.color,
+                          fresh.encoded.color)
+    with pytest.raises(PatchlightError, match="no ground under the area.*the level spans x -10..10"):
+        plan_groundmap(level_scene.scene, GroundMapSettings(size=16, area=GroundArea(100, 100, 120, 120)))
 
 
 def test_no_sun_turns_shadows_off_with_one_warning():

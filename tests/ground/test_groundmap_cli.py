@@ -9,8 +9,9 @@ import pytest
 
 from patchlight.cli.main import build_parser, main
 from patchlight.cli.render import load_target_and_settings
+from patchlight.errors import PatchlightError
 from patchlight.ground.files import load_ground_map
-from patchlight.ground.groundmap import GroundMapSettings, make_groundmap
+from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
 from patchlight.ground.viewer import view_target
 from patchlight.imaging.io import read_exr
 from patchlight.solved import load_solved
@@ -133,6 +134,61 @@ def test_a_damaged_manifest_is_one_line_and_exit_2(baked, tmp_path, capsys, chan
     assert message in err and "groundmap.json" in err and err.count("\n") == 1
 
 
+# ------------------------------------------------------------------ a scene baked here: one set, checked first
+
+def refuse_to_bake(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("groundmap baked a scene whose map it could have refused before the bake")
+
+    monkeypatch.setattr("patchlight.bake.bake", refuse)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--area", "100,100,110,110"], "no ground under the area"),
+    (["--seed", "-1"], "--seed -1"),
+    (["--size", "0"], "--size 0"),
+])
+def test_a_map_that_cannot_be_made_is_refused_before_the_scene_is_baked(tmp_path, capsys, monkeypatch, args, message):
+    refuse_to_bake(monkeypatch)
+    out = tmp_path / "bad"
+    assert main(["groundmap", "cornell", "-o", str(out), "--texels-per-unit", "8", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == []          # no output, no staging left
+
+
+def test_the_level_extent_is_named_when_no_ground_lies_under_the_area(tmp_path, capsys, monkeypatch):
+    refuse_to_bake(monkeypatch)
+    assert main(["groundmap", "cornell", "-o", str(tmp_path / "bad"), "--area", "100,100,110,110"]) == 2
+    assert "the level spans x " in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("broken", ["patchlight.ground.groundmap.make_groundmap",
+                                    "patchlight.ground.groundmap._write_variant"])
+def test_a_failure_after_the_bake_writes_nothing(tmp_path, capsys, monkeypatch, broken):
+    """The bake is part of the one staged set: a map that fails to be made (or written) after
+    the bake leaves no bake behind either."""
+    def fail(*args, **kwargs):
+        raise OSError(28, "No space left on device") if broken.endswith("_write_variant") else PatchlightError("boom")
+
+    monkeypatch.setattr(broken, fail)
+    assert main(["groundmap", "cornell", "-o", str(tmp_path / "out"), "--size", "8", "--quiet",
+                 "--texels-per-unit", "4"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_new_map_over_an_older_set_replaces_bake_and_map_together(baked, tmp_path, capsys):
+    _, first = baked
+    out = tmp_path / "out"
+    assert main(["groundmap", "cornell", "-o", str(out), "--size", "16", "--quiet", "--texels-per-unit", "8"]) == 0
+    before = json.loads((out / "bake.json").read_text())
+    assert main(["groundmap", "cornell", "-o", str(out), "--size", "8", "--quiet", "--texels-per-unit", "4"]) == 0
+    after = json.loads((out / "bake.json").read_text())
+    assert after["settings"]["texels_per_unit"] == 4 and before["settings"]["texels_per_unit"] == 8
+    assert json.loads((out / "groundmap.json").read_text())["size"] == 8
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
 # ------------------------------------------------------------------ offset mode and distance
 
 def render_exr(target, tmp_path, name, *extra) -> np.ndarray:
@@ -182,3 +238,48 @@ def test_offset_mode_needs_a_ground_map_directory(baked, tmp_path, capsys, comma
         (tmp_path / "kept.json").rename(bake_dir / "groundmap.json")
     err = capsys.readouterr().err
     assert "--offset-mode side" in err and "not a ground map directory" in err and err.count("\n") == 1
+
+
+# ------------------------------------------------------------------ maps written from Python
+
+def test_a_map_written_from_python_names_the_bake_its_scene_was_read_from(baked, tmp_path, capsys):
+    _, bake_dir = baked
+    out = tmp_path / "api_g"
+    manifest = write_groundmap(make_groundmap(load_solved(bake_dir), GroundMapSettings(size=16)), out, "api")
+    assert (out / manifest["bake"]).resolve() == bake_dir.resolve()
+    assert main(["render", str(out), "--model", "hemisphere-radiosity", "--size", "8x8",
+                 "-o", str(tmp_path / "x.png")]) == 0
+
+
+def test_a_map_written_from_python_with_its_bake_made_in_memory_is_one_set(tmp_path, capsys):
+    from patchlight.bake import bake
+    from patchlight.config import BakeSettings
+    from patchlight.scene import load_scene
+    from patchlight.solved import SolvedScene
+
+    settings = BakeSettings(texels_per_unit=4.0)
+    result = bake(load_scene("cornell"), settings)
+    out = tmp_path / "api_g"
+    ground_map = make_groundmap(SolvedScene(result.scene, result.lightmap, "cornell"), GroundMapSettings(size=8))
+    assert write_groundmap(ground_map, out, "cornell", bake=(result, settings))["bake"] == "."
+    assert {"bake.json", "scene.glb", "lightmap.exr", "groundmap.json"} <= {p.name for p in out.iterdir()}
+    assert main(["render", str(out), "--model", "hemisphere-radiosity", "--size", "8x8",
+                 "-o", str(tmp_path / "x.png")]) == 0
+
+
+def test_a_map_written_from_python_without_a_bake_says_what_to_do(tmp_path, capsys):
+    from ground_scenes import ground, solved
+    from patchlight.scene.builtin import SceneBuilder
+
+    b = SceneBuilder()
+    ground(b)
+    out = tmp_path / "api_g"
+    manifest = write_groundmap(make_groundmap(solved(b), GroundMapSettings(size=8)), out, "test")
+    assert manifest["bake"] is None and any("no bake recorded" in w for w in manifest["warnings"])
+    assert load_ground_map(out).texture.shape == (8, 8, 4)         # the map itself is whole
+    for command in (["render", str(out), "--model", "hemisphere-radiosity", "-o", str(tmp_path / "x.png")],
+                    ["view", str(out)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert "names no bake" in err and "bake_dir=" in err and "patchlight groundmap" in err
+        assert err.count("\n") == 1

@@ -3,7 +3,10 @@ sun shadows, for hemisphere lighting of moving objects (runtime model hemisphere
 
 Given a scene (file or built-in name) rather than a bake directory, the scene is baked first
 and the bake is written into DIR too, so DIR is also a bake directory that `patchlight view`
-shows, with the ground map lighting cars that drive through it.
+shows, with the ground map lighting cars that drive through it (render and view need the lit
+level the map lies over; keeping the bake saves baking it again). The bake and the map are one
+set: every check that needs no light (settings, the output, ground under the area) is made
+before the bake, and nothing is written into DIR unless the whole command succeeds.
 """
 from __future__ import annotations
 
@@ -78,45 +81,50 @@ def recorded_sun_angle(bake_dir) -> float | None:
     return angle
 
 
-def solve_here(args):
-    """(SolvedScene, bake directory relative to the output, the bake's sun angle in degrees or
-    None): the bake directory as given, or the scene baked now and written into the output
-    directory."""
-    from ..bake import bake, write_bake
-    from ..config import BakeSettings
-    from ..solved import SolvedScene, is_bake_dir, load_solved
-    from .bake import load_lit_scene
-
-    if is_bake_dir(args.scene):
-        solved = load_solved(args.scene, sky=sky_from_args(args))
-        return solved, os.path.relpath(Path(args.scene).resolve(), args.output.resolve()), \
-            recorded_sun_angle(args.scene)
-    if Path(args.scene).is_dir():
-        raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
-    scene = load_lit_scene(args)
+def bake_density(args, scene) -> float:
+    """The lightmap density for baking `scene` here: --texels-per-unit, else DENSE_TEXELS_PER_UNIT
+    lowered so the level's width spans LEVEL_TEXELS texels."""
     density = args.texels_per_unit
     if density is None:
         lo, hi = scene.bounds()
         density = min(DENSE_TEXELS_PER_UNIT, LEVEL_TEXELS / max(float(hi[0] - lo[0]), float(hi[2] - lo[2]), 1e-3))
     if not density > 0:
         raise PatchlightError("--texels-per-unit must be positive")
-    settings = BakeSettings(texels_per_unit=density, sun_angle=args.sun_angle, falloff=args.falloff)
-    result = bake(scene, settings, quiet=args.quiet or args.json)
-    write_bake(result, args.output, settings)
-    return SolvedScene(result.scene, result.lightmap, str(args.scene)), ".", args.sun_angle
+    return density
 
 
 def run(args) -> int:
-    from ..ground.groundmap import make_groundmap, write_groundmap
+    """Check everything that needs no light, then solve (read the bake, or bake the scene in
+    memory), make the map and write it (with the bake made here) as one set."""
+    from ..bake import bake
+    from ..config import BakeSettings
+    from ..ground.groundmap import make_groundmap, plan_groundmap, write_groundmap
     from ..imaging.io import check_output_dir
+    from ..solved import SolvedScene, is_bake_dir, load_solved
+    from .bake import load_lit_scene
 
     settings = settings_from_args(args)
     check_output_dir(args.output)
-    solved, bake_dir, bake_sun_angle = solve_here(args)
-    if settings.sun_angle is None:  # the map's shadows are the bake's
-        settings.sun_angle = bake_sun_angle
-    ground_map = make_groundmap(solved, settings)
-    manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir)
+    made = None  # (BakeResult, BakeSettings) of a scene baked here
+    if is_bake_dir(args.scene):
+        bake_dir = os.path.relpath(Path(args.scene).resolve(), args.output.resolve())
+        if settings.sun_angle is None:  # the map's shadows are the bake's
+            settings.sun_angle = recorded_sun_angle(args.scene)
+        solved = load_solved(args.scene, sky=sky_from_args(args))
+        plan = None
+    elif Path(args.scene).is_dir():
+        raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
+    else:
+        scene = load_lit_scene(args)
+        bake_settings = BakeSettings(texels_per_unit=bake_density(args, scene), sun_angle=args.sun_angle,
+                                     falloff=args.falloff)
+        bake_settings.validate()
+        plan = plan_groundmap(scene, settings)  # refuses a map it cannot make before the bake
+        result = bake(scene, bake_settings, quiet=args.quiet or args.json)
+        solved = SolvedScene(result.scene, result.lightmap, str(args.scene))
+        made, bake_dir = (result, bake_settings), None
+    ground_map = make_groundmap(solved, settings, plan)
+    manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir, bake=made)
     if args.json:
         json.dump(json.loads((args.output / "groundmap.json").read_text()), sys.stdout, indent=2)
         print()
@@ -125,7 +133,7 @@ def run(args) -> int:
         files = " ".join(v for f in manifest["files"].values() for k, v in f.items() if k in ("png", "dds"))
         print(f"ground map {settings.size} x {settings.size} ({e.encoding}) in "
               f"{sum(ground_map.seconds.values()):.2f} s, {100 * ground_map.shadowed:.0f}% in shadow")
-        print(f"results in {args.output}/: {files} groundmap.json")
+        print(f"results in {args.output}/: {files} groundmap.json" + (" and the bake" if made else ""))
     for warning in ground_map.warnings:
         print(f"patchlight: warning: {warning}", file=sys.stderr)
     return 0

@@ -5,7 +5,10 @@ with static sun shadows folded in.
 Stages (each timed): prepare (leave out high polygons, turn vertical ones up), look down
 (one ray per texel, the bake's light at the hit), shadows (rays to the sun per texel),
 encode (noise, shadow amount, one of three encodings), then `write_groundmap` writes the
-files (files.py).
+files (files.py). The first two need only the level's geometry: `plan_groundmap` runs them
+on a scene before it is baked, so a map that cannot be made (an area with no ground under
+it) is refused before the bake, and `make_groundmap` reuses the plan when the baked scene
+has the same triangles.
 
 | setting    | unit / type | default | meaning (range; typical)                                      |
 |------------|-------------|---------|---------------------------------------------------------------|
@@ -21,6 +24,7 @@ files (files.py).
 """
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,13 +33,14 @@ import numpy as np
 
 from ..errors import PatchlightError
 from ..rays.tracer import Tracer
+from ..scene.model import Scene
 from ..shading.hemisphere_radiosity import OFFSET_MODES
-from ..solved import SolvedScene
+from ..solved import SolvedScene, is_bake_dir
 from . import encode as enc
 from ..imaging.io import staged_output, write_png
 from .files import FORMAT, MANIFEST, VERSION, to_bytes, write_manifest, write_map_files
 from .mapping import GroundArea, check_size, square_area
-from .picture import look_down, sun_shadow, the_sun
+from .picture import Footprint, cast_down, look_down, sun_shadow, the_sun
 from .prepare import MapGeometry, ground_below, prepare_map_geometry
 
 SIDE_VECTOR = ("the moving object's local +X axis (glTF: +Y up, the front faces +Z) in world space, unit "
@@ -43,6 +48,9 @@ SIDE_VECTOR = ("the moving object's local +X axis (glTF: +Y up, the front faces 
                "offset x N (Listing 1 keeps the offset in the vector's length: VS_RADIOSITY_SIDE = "
                "sqrt(offset) x side)")
 STALE_FILES = ("shadow.png", "shadow.dds", "variant_*.png")  # an older map's files the new one may lack
+NO_BAKE = ("no bake recorded (written from Python without bake_dir or bake): `patchlight render` and `view` "
+           "cannot show this map; write it again with write_groundmap(..., bake_dir=DIR) or bake=(result, "
+           "settings), or with `patchlight groundmap`")
 MAPPING_NOTE = ("u = U . (x, y, z, 1), v = V . (x, y, z, 1); +X to the right, +Z down the picture, "
                 "v = 0 is the image's top row (glTF's UV convention); texels are linear, value 1 = map_scale")
 
@@ -84,7 +92,8 @@ class GroundMap:
     """A baked ground map. encoded: the texels (encode.EncodedMap); area; sky_light (3,)
     the sky's incident light on an up-facing patch (radiance); sun: (direction (3,),
     I_sun on the ground (3,)) or None; shadowed: share of covered texels in shadow;
-    coverage: share of texels with a surface under them; seconds per stage; warnings; and
+    coverage: share of texels with a surface under them; seconds per stage; warnings;
+    bake_dir: the bake directory (absolute) the solved scene was read from, or None; and
     what any encoding is made from: excident B, unshadowed B_u (H, W, 3) with noise, shadow
     amount s and covered (H, W); path (K, 3): the loop the viewer's cars drive, the scene's
     extras["path"] or `car_loop`."""
@@ -103,6 +112,7 @@ class GroundMap:
     path: np.ndarray | None = None
     seconds: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    bake_dir: str | None = None  # the bake directory the solved scene was read from (absolute), if any
 
     def encode(self, encoding: str) -> enc.EncodedMap:
         """The same map in another encoding."""
@@ -121,13 +131,36 @@ def _sky_light(solved: SolvedScene, excident: np.ndarray, covered: np.ndarray, w
     return excident[covered].mean(axis=0).astype(np.float32)
 
 
-def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = None) -> GroundMap:
-    """Bake the ground map of a solved scene (module docstring). Nothing is written."""
+@dataclass
+class GroundPlan:
+    """What a map needs of the level's geometry alone (`plan_groundmap`): the area, the map
+    geometry (prepare.py), where each texel's ray lands (picture.Footprint), the share of
+    covered texels, and what it was made from (settings, the scene's triangle corners (T, 3, 3))
+    so `make_groundmap` reuses it only for the same level and settings."""
+
+    area: GroundArea
+    where: str
+    geometry: MapGeometry
+    footprint: Footprint
+    coverage: float
+    settings: GroundMapSettings
+    triangles: np.ndarray
+    seconds: dict = field(default_factory=dict)
+
+    def fits(self, scene: Scene, settings: GroundMapSettings) -> bool:
+        """This plan is the one plan_groundmap(scene, settings) would make."""
+        s = self.settings
+        return ((s.size, s.area, s.max_height) == (settings.size, settings.area, settings.max_height)
+                and np.array_equal(self.triangles, scene.triangle_vertices()))
+
+
+def plan_groundmap(scene: Scene, settings: GroundMapSettings | None = None) -> GroundPlan:
+    """Check the settings and prepare the map of `scene`, lit or not: prepare its geometry and
+    cast the downward rays. PatchlightError, before any light is needed, when no ground lies
+    under the area."""
     settings = settings or GroundMapSettings()
     settings.validate()
-    scene = solved.scene
     seconds: dict[str, float] = {}
-    warnings: list[str] = []
     lo, hi = scene.bounds()
     area = settings.area or square_area(lo, hi)
     where = f"--area {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.label
@@ -137,16 +170,38 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     seconds["prepare"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    picture = look_down(solved, geometry, area, settings.size)
+    footprint = cast_down(geometry, area, settings.size)
     seconds["look down"] = time.perf_counter() - clock
-    covered = picture.covered
-    if not covered.any():
+    if not footprint.covered.any():
         raise PatchlightError(f"{where}: no ground under the area (no upward-facing surface within "
                               f"{settings.max_height:g} m of the ground lies in x {area.x0:g}..{area.x1:g}, "
-                              f"z {area.z0:g}..{area.z1:g})")
-    coverage = float(covered.mean())
-    if coverage < 1.0:
-        warnings.append(f"{where}: {100 * (1 - coverage):.1f}% of the map has no surface under it (black texels)")
+                              f"z {area.z0:g}..{area.z1:g}; the level spans x {lo[0]:g}..{hi[0]:g}, "
+                              f"z {lo[2]:g}..{hi[2]:g})")
+    return GroundPlan(area, where, geometry, footprint, float(footprint.covered.mean()), settings,
+                      scene.triangle_vertices(), seconds)
+
+
+def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = None,
+                   plan: GroundPlan | None = None) -> GroundMap:
+    """Bake the ground map of a solved scene (module docstring). Nothing is written. plan: the
+    scene's plan_groundmap, made before its bake; used when it fits the solved scene and these
+    settings, else the plan is made again."""
+    settings = settings or GroundMapSettings()
+    settings.validate()
+    scene = solved.scene
+    if plan is None or not plan.fits(scene, settings):
+        plan = plan_groundmap(scene, settings)
+    seconds = dict(plan.seconds)
+    warnings: list[str] = []
+    lo, hi = scene.bounds()
+    area, where, geometry = plan.area, plan.where, plan.geometry
+    if plan.coverage < 1.0:
+        warnings.append(f"{where}: {100 * (1 - plan.coverage):.1f}% of the map has no surface under it (black texels)")
+
+    clock = time.perf_counter()
+    picture = look_down(solved, plan.footprint)
+    covered = picture.covered
+    seconds["look down"] += time.perf_counter() - clock
 
     clock = time.perf_counter()
     sun = the_sun(scene.lights)
@@ -176,8 +231,9 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     shadowed = float(np.mean(shadow[covered] < enc.UNSHADOWED))
     path = scene.extras.get("path") if isinstance(scene.extras, dict) else None
     path = car_loop(geometry, area) if path is None else np.asarray(path, np.float64)
-    return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, coverage,
-                     excident, unshadowed, shadow, covered, path, seconds, warnings)
+    bake_dir = str(Path(solved.source).resolve()) if is_bake_dir(solved.source) else None
+    return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, plan.coverage,
+                     excident, unshadowed, shadow, covered, path, seconds, warnings, bake_dir)
 
 
 def car_loop(geometry, area: GroundArea, points: int = 96) -> np.ndarray:
@@ -194,13 +250,32 @@ def car_loop(geometry, area: GroundArea, points: int = 96) -> np.ndarray:
     return loop
 
 
-def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str | None) -> dict:
+def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str | None = None,
+                    bake: tuple | None = None) -> dict:
     """Write the map files (files.py: the map in its encoding as PNG and DDS, the other two
     encodings as PNG) and groundmap.json into out_dir, as one set: staged, then moved in with
     groundmap.json last, so a reader never meets a manifest naming missing or older files.
-    bake_dir: the bake it came from, relative to out_dir. Returns the manifest."""
+    Returns the manifest.
+
+    Which bake the manifest names (`patchlight render` and `view` show the map over it):
+    bake_dir, the bake it came from (relative to out_dir, or absolute); else, with bake, a
+    (BakeResult, BakeSettings) made in memory, that bake written into out_dir in the same set
+    (its files staged with the map's, moved in before them with bake.json last, groundmap.json
+    removed first); else the bake directory the solved scene was read from, if any. With none,
+    the manifest names no bake and says so in its warnings: the map's files serve an engine,
+    but render and view refuse the directory."""
+    if bake_dir is not None and bake is not None:
+        raise ValueError("write_groundmap: give bake_dir or bake, not both")
     clock = time.perf_counter()
     e = ground_map.encoded
+    out_dir = Path(out_dir)
+    warnings = list(ground_map.warnings)
+    if bake is not None:
+        bake_dir = "."
+    elif bake_dir is None and ground_map.bake_dir is not None:
+        bake_dir = os.path.relpath(ground_map.bake_dir, out_dir.resolve())
+    elif bake_dir is None:
+        warnings.append(NO_BAKE)
     with staged_output(out_dir, MANIFEST, stale=STALE_FILES) as staging:
         files = {"color": write_map_files(staging, "groundmap", to_bytes(e.color))}
         if e.shadow is not None:
@@ -210,8 +285,13 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
             if encoding != e.encoding:
                 variants[encoding] = _write_variant(staging, ground_map.encode(encoding))
         ground_map.seconds["write"] = time.perf_counter() - clock
-        manifest = _manifest(ground_map, source, bake_dir, files, variants)
+        manifest = _manifest(ground_map, source, bake_dir, files, variants, warnings)
         write_manifest(staging, manifest)
+        if bake is not None:  # every file is staged: the commit starts with the bake's
+            from ..bake import write_bake
+
+            (out_dir / MANIFEST).unlink(missing_ok=True)  # no older map over the new bake meanwhile
+            write_bake(bake[0], out_dir, bake[1])
     return manifest
 
 
@@ -231,7 +311,8 @@ def _write_variant(out_dir: Path, encoded: enc.EncodedMap) -> dict:
     return {"files": files, "map_scale": encoded.map_scale, "sky_scale": encoded.sky_scale}
 
 
-def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: dict, variants: dict) -> dict:
+def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: dict, variants: dict,
+              warnings: list) -> dict:
     e = ground_map.encoded
     s = ground_map.settings
     return {
@@ -261,5 +342,5 @@ def _manifest(ground_map: GroundMap, source: str, bake_dir: str | None, files: d
         "coverage": ground_map.coverage,
         "path": ground_map.path,
         "seconds_per_stage": ground_map.seconds,
-        "warnings": ground_map.warnings,
+        "warnings": warnings,
     }

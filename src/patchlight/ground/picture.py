@@ -1,8 +1,9 @@
 """The top-down picture of the lit level and its static sun shadows.
 
 One ray per texel centre looks straight down (-Y) at the map geometry (prepare.py): the
-turned-up vertical layer first, then the flat layer. A hit shows the light leaving the
-original surface there, B = rho I + E (DESIGN.md units: radiance), read from the bake.
+turned-up vertical layer first, then the flat layer (`cast_down`: geometry only, so it runs
+before a bake). A hit shows the light leaving the original surface there, B = rho I + E
+(DESIGN.md units: radiance), read from the bake (`look_down`).
 
 Shadows: shadow rays from the flat layer's hit towards the sun, against the whole level
 (tree canopies and poles left out of the picture still cast shadows), say how much of the sun
@@ -23,6 +24,23 @@ from .mapping import GroundArea
 from .prepare import MapGeometry
 
 _DOWN = np.array([0.0, -1.0, 0.0], np.float32)
+
+
+@dataclass
+class Footprint:
+    """Where each texel's downward ray lands, before any light: per texel of a size x size
+    map (rows along z, columns along x, mapping.py), flattened to N = size^2.
+
+    tri (N,) int64 the scene triangle hit (-1: none); u, v (N,) float32 its barycentrics;
+    covered (N,) bool, tri >= 0; ground (N, 3) world point of the flat layer's hit (NaN
+    where none), where shadows are tested."""
+
+    size: int
+    tri: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    covered: np.ndarray
+    ground: np.ndarray
 
 
 @dataclass
@@ -47,8 +65,10 @@ def _look_down(tracer: Tracer | None, xz: np.ndarray, top_y: float) -> Hits | No
     return tracer.intersect(origins, np.broadcast_to(_DOWN, origins.shape))
 
 
-def look_down(solved: SolvedScene, geometry: MapGeometry, area: GroundArea, size: int) -> TopDown:
-    """The top-down picture of `solved` through `geometry` over `area` at size x size."""
+def cast_down(geometry: MapGeometry, area: GroundArea, size: int) -> Footprint:
+    """One ray per texel centre of a size x size map over `area`, straight down through
+    `geometry`: the turned-up layer first, then the flat one. Needs no light, so it can run
+    (and refuse an area with nothing under it) before a bake."""
     xz = area.texel_centres(size).reshape(-1, 2)
     n = len(xz)
     layers = [(geometry.fallen_positions, geometry.fallen_source), (geometry.flat_positions, geometry.flat_source)]
@@ -67,16 +87,23 @@ def look_down(solved: SolvedScene, geometry: MapGeometry, area: GroundArea, size
         take = hit & (tri < 0)
         tri[take] = source[hits.tri[take]]
         u[take], v[take] = hits.u[take], hits.v[take]
-    covered = tri >= 0
+    return Footprint(size, tri, u, v, tri >= 0, ground)
+
+
+def look_down(solved: SolvedScene, footprint: Footprint) -> TopDown:
+    """The top-down picture of `solved` at the texels of `footprint` (cast_down over the
+    same scene's geometry)."""
+    n, size = len(footprint.tri), footprint.size
+    covered = footprint.covered
     excident = np.zeros((n, 3), np.float32)
     reflectance = np.zeros((n, 3), np.float32)
     if covered.any():
-        t, uu, vv = tri[covered], u[covered], v[covered]
+        t, uu, vv = footprint.tri[covered], footprint.u[covered], footprint.v[covered]
         reflectance[covered] = solved.reflectance(t, uu, vv)
         excident[covered] = reflectance[covered] * solved.incident(t, uu, vv) + solved.emission(t, uu, vv)
     shape = (size, size)
     return TopDown(excident.reshape(*shape, 3), reflectance.reshape(*shape, 3), covered.reshape(shape),
-                   ground.reshape(*shape, 3))
+                   footprint.ground.reshape(*shape, 3))
 
 
 def the_sun(lights: list[Light]) -> Light | None:
