@@ -2,8 +2,10 @@
 
 Prints, per scene: patches, computed patches, rays traced, rays per second, seconds per
 stage, and the ratio of the whole bake's time to the time embreex alone needs to trace the
-same rays (the same gather and shadow rays, re-traced with bare `EmbreeScene.run` calls on
-a thread per core). Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N]`.
+same rays: every ray the bake cast (closest-hit and occlusion) is recorded as it is cast and
+re-traced afterwards with bare `EmbreeScene.run` calls on a thread per core. The JIT is
+warmed up first, untimed. The recording costs memory (about 50 bytes a ray), not bake time.
+Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N] [--gather G] [--scenes ...]`.
 """
 from __future__ import annotations
 
@@ -14,46 +16,76 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from patchlight.bake import bake, ray_offsets
+from patchlight.bake import bake
 from patchlight.config import BakeSettings
-from patchlight.radiosity import _kernels, adaptive
-from patchlight.radiosity.gather import Gatherer
+from patchlight.rays.tracer import Tracer
 from patchlight.scene import load_scene
 
 
-def embree_alone(result, settings) -> float:
-    """Seconds bare embreex needs for the bake's gather rays (computed patches x rays)."""
+class RecordedRays:
+    """Keeps a copy of every ray the tracer casts while active: (origins, directions, tmax
+    or None for closest hit) per call."""
+
+    def __init__(self):
+        self.batches = []
+        self._originals = (Tracer.intersect_chunk, Tracer.occluded)
+
+    def __enter__(self):
+        intersect_chunk, occluded = self._originals
+        record = self.batches.append
+
+        def recorded_intersect_chunk(tracer, origins, directions):
+            record((np.array(origins, np.float32), np.array(directions, np.float32), None))
+            return intersect_chunk(tracer, origins, directions)
+
+        def recorded_occluded(tracer, origins, directions, tmax):
+            far = np.array(np.broadcast_to(np.asarray(tmax, np.float32), (len(origins),)))
+            record((np.array(origins, np.float32), np.array(directions, np.float32), far))
+            return occluded(tracer, origins, directions, tmax)
+
+        Tracer.intersect_chunk, Tracer.occluded = recorded_intersect_chunk, recorded_occluded
+        return self
+
+    def __exit__(self, *exc):
+        Tracer.intersect_chunk, Tracer.occluded = self._originals
+
+    def count(self, occlusion: bool) -> int:
+        return sum(len(o) for o, _, far in self.batches if (far is not None) == occlusion)
+
+
+def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
+    """Seconds bare embreex needs for the recorded closest-hit and occlusion rays."""
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
-    scene, patches = result.scene, result.patches
     es = rtcore_scene.EmbreeScene()
     TriangleMesh(es, scene.positions.astype(np.float32), scene.indices.astype(np.int32))
-    size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
-    g = Gatherer(patches, None, None, None, settings.gather, size, ray_offsets(scene, patches), settings.seed)
-    rows = np.flatnonzero((result.status == adaptive.COMPUTED) | (result.status == adaptive.INSIDE))
     threads = os.cpu_count() or 1
     pool = ThreadPoolExecutor(threads)
-    seconds = 0.0
-    per_chunk = max(1, (1 << 20) // g.rays_per_patch)
-    for s in range(0, len(rows), per_chunk):
-        r = rows[s:s + per_chunk]
-        o, d = _kernels.make_rays(patches.position, patches.normal, g.offset, r.astype(np.int64), g.dirs, g._angles(r))
-        parts = np.array_split(np.arange(len(o)), threads * 4)
+    seconds = {True: 0.0, False: 0.0}
+    for o, d, far in rays.batches:
+        parts = np.array_split(np.arange(len(o)), threads)
+        if far is None:
+            trace = lambda idx: es.run(o[idx], d[idx], output=1)  # noqa: E731
+        else:
+            trace = lambda idx: es.run(o[idx], d[idx], dists=far[idx], query="OCCLUDED")  # noqa: E731
         start = time.perf_counter()
-        list(pool.map(lambda idx: es.run(o[idx], d[idx], output=1), parts))
-        seconds += time.perf_counter() - start
-    return seconds
+        list(pool.map(trace, parts))
+        seconds[far is not None] += time.perf_counter() - start
+    return seconds[False], seconds[True]
 
 
 def run(name: str, settings: BakeSettings) -> None:
     scene = load_scene(name)
     bake(scene, BakeSettings(resolution=128, passes=2))  # JIT warm-up, not timed
-    start = time.perf_counter()
-    result = bake(scene, settings)
-    total = time.perf_counter() - start
+    with RecordedRays() as rays:
+        start = time.perf_counter()
+        result = bake(scene, settings)
+        total = time.perf_counter() - start
     s = result.stats
-    alone = embree_alone(result, settings)
+    closest, occlusion = embree_alone(result.scene, rays)
+    n_closest, n_occlusion = rays.count(False), rays.count(True)
+    assert n_closest + n_occlusion == s["rays_traced"], "every ray the bake counted was recorded"
     print(f"\n== {name} {s['resolution'][0]}x{s['resolution'][1]}, {settings.gather} "
           f"({s['rays_per_patch']} rays/patch)")
     print(f"patches {s['patches']}: computed {s['computed_patches']}, interpolated {s['interpolated_patches']}, "
@@ -64,16 +96,19 @@ def run(name: str, settings: BakeSettings) -> None:
     for stage, seconds in s["seconds_per_stage"].items():
         print(f"  {stage:<14} {seconds:7.3f} s")
     print(f"  {'total':<14} {total:7.3f} s   texels/s {s['patches'] / total:,.0f}")
-    print(f"embreex alone on the gather rays: {alone:.3f} s ({s['rays_gather'] / alone / 1e6:.2f} Mrays/s); "
-          f"bake / embreex = {total / alone:.2f}")
+    print(f"embreex alone: {n_closest / 1e6:.2f} M closest-hit rays {closest:.3f} s "
+          f"({n_closest / max(closest, 1e-9) / 1e6:.2f} Mrays/s), {n_occlusion / 1e6:.2f} M occlusion rays "
+          f"{occlusion:.3f} s ({n_occlusion / max(occlusion, 1e-9) / 1e6:.2f} Mrays/s); "
+          f"bake / embreex = {total / (closest + occlusion):.2f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", type=int, default=512)
     parser.add_argument("--gather", default="stratified", choices=("stratified", "hemicube"))
+    parser.add_argument("--scenes", nargs="+", default=["room", "cornell"])
     args = parser.parse_args()
-    for name in ("room", "cornell"):
+    for name in args.scenes:
         run(name, BakeSettings(resolution=args.resolution, gather=args.gather))
 
 

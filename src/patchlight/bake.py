@@ -100,6 +100,11 @@ def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, sett
 
 
 def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
+    """Gather patches `rows`, but for those a probe or their own gather finds inside geometry."""
+    inside = ff.probe_inside(rows, INSIDE_BACK_FRACTION)
+    status[rows[inside]] = adaptive.INSIDE
+    advance(int(inside.sum()))
+    rows = rows[~inside]
     status[rows] = adaptive.COMPUTED
     back = ff.add(rows.astype(np.int64), progress=advance)
     status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
@@ -169,7 +174,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         gather_start = time.perf_counter()
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
-        rays_in_gather = ff.rays + ff.rays_regathered  # what the gather stage traced
+        rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
         pass_images = []
         with progress.stage("passes", total=settings.passes) as advance:
             def on_pass(k, change, incident):
@@ -193,8 +198,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "inside_geometry_patches": int(counts[adaptive.INSIDE]),
         "gather": settings.gather,
         "rays_per_patch": gatherer.rays_per_patch,
-        "rays_traced": rays_direct + ff.rays + ff.rays_regathered,
+        "rays_traced": rays_direct + ff.rays_probed + ff.rays + ff.rays_regathered,
         "rays_direct": rays_direct,
+        "rays_probe": ff.rays_probed,
         "rays_gather": ff.rays,
         "rays_regather": ff.rays_regathered,
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),

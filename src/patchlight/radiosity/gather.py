@@ -19,6 +19,7 @@ from . import _kernels
 from .hemicube import multiplier_map, stratified_directions
 
 RAYS_PER_CHUNK = 1 << 16  # one task: ray generation, trace and item buffer on one core
+PROBE_RAYS = 16           # cosine rays that first test whether a patch lies inside geometry
 
 
 @dataclass
@@ -48,6 +49,7 @@ class Gatherer:
             self.dirs, self.weights = stratified_directions(size, np.random.default_rng(seed))
         else:
             raise ValueError(f"unknown gather method {method!r}")
+        self.probe_dirs, _ = stratified_directions(PROBE_RAYS, np.random.default_rng(seed))
         self.cluster = None  # a cluster.RayCluster runs the chunks as Ray tasks; None: here
 
     def __getstate__(self):
@@ -65,9 +67,19 @@ class Gatherer:
         golden = 0.6180339887498949
         return (2 * np.pi) * np.modf((rows.astype(np.float64) + self.seed) * golden)[0]
 
-    def _chunks(self, rows: np.ndarray) -> list[np.ndarray]:
-        per_chunk = max(1, RAYS_PER_CHUNK // self.rays_per_patch)
+    def _chunks(self, rows: np.ndarray, rays_per_patch: int | None = None) -> list[np.ndarray]:
+        per_chunk = max(1, RAYS_PER_CHUNK // (rays_per_patch or self.rays_per_patch))
         return [rows[s:s + per_chunk] for s in range(0, len(rows), per_chunk)]
+
+    def probe_back_fraction(self, rows: np.ndarray) -> np.ndarray:
+        """(R,) share of PROBE_RAYS cosine rays from each patch of `rows` that hit back faces:
+        a cheap look before a patch inside a wall or under an object pays for its gather."""
+        def probe(chunk):
+            seen, _ = self._see(chunk, self.probe_dirs)
+            return np.mean(seen.reshape(len(chunk), -1) == _kernels.BACK_FACE, axis=1)
+
+        parts = self.tracer.map(probe, self._chunks(rows, PROBE_RAYS))
+        return np.concatenate(parts) if parts else np.zeros(0)
 
     def gather(self, rows: np.ndarray, progress=None) -> GatherRows:
         """Trace and resolve the rays of patches `rows` (R,) into their F rows and sky term."""
@@ -88,23 +100,23 @@ class Gatherer:
         """(R, 3) the rows `rows` of F B, traced again chunk by chunk and never stored: the
         re-gathering pass of a bake whose F does not fit in memory (runs here, not on Ray)."""
         B = np.ascontiguousarray(B, np.float32)
-        parts = self.tracer.map(lambda chunk: _kernels.item_buffer_times(self._see(chunk)[0], self.weights, B),
-                                self._chunks(rows))
+        parts = self.tracer.map(lambda chunk: _kernels.item_buffer_times(self._see(chunk, self.dirs)[0],
+                                                                         self.weights, B), self._chunks(rows))
         return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
-    def _see(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The item buffer of patches `rows`: (R * D,) patch id or SKY / BACK_FACE / LOST per
-        ray, and the rays' directions (R * D, 3)."""
+    def _see(self, rows: np.ndarray, local_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
+        id or SKY / BACK_FACE / LOST per ray, and the rays' directions (R * D, 3)."""
         p = self.patches
         origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
-                                           self.dirs, self._angles(rows))
+                                           local_dirs, self._angles(rows))
         hits = self.tracer.intersect_chunk(origins, dirs)
         return _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
                                      p.width, p.height, p.index), dirs
 
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
         """One chunk's rows (the unit of work a Ray task runs)."""
-        seen, dirs = self._see(rows)
+        seen, dirs = self._see(rows, self.dirs)
         sky = seen == _kernels.SKY
         radiance = np.zeros((int(sky.sum()), 3), np.float32)
         if self.sky is not None and len(radiance):

@@ -34,6 +34,13 @@ class FormFactors:
     lost_rays: int = 0
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
     rays_regathered: int = 0  # and again for every product once F is not kept
+    rays_probed: int = 0      # probe rays that looked for patches inside geometry first
+
+    def probe_inside(self, rows: np.ndarray, back_fraction: float) -> np.ndarray:
+        """(R,) bool: the patches of `rows` that a few probe rays find inside geometry (more
+        than back_fraction of them on back faces); they need no gather."""
+        self.rays_probed += len(rows) * len(self.gatherer.probe_dirs)
+        return self.gatherer.probe_back_fraction(rows) > back_fraction
 
     def add(self, rows: np.ndarray, progress=None) -> np.ndarray:
         """Gather patches `rows`; returns their share of rays that hit back faces."""
