@@ -8,6 +8,10 @@
 //       camera at the sphere's centre from that offset); the objects' places go to the log.
 //   node browser.mjs smoke URL OUT_DIR             load the page as a person would, pick every model
 //                                                 and option from the controls, save screenshot.png
+//   node browser.mjs controls URL SCRIPT.json OUT_DIR  with the page's own controls, run the script's
+//                                                 `actions` ({select|fill|click: CSS selector, value}),
+//                                                 log the light panel and the lights they made, then
+//                                                 render its `case` with those lights to OUT_DIR/<name>.rgba
 //   node browser.mjs volume-live URL OUT_DIR       the live page with a light volume: the objects'
 //                                                 places 0.5 s apart, both volume toggles clicked,
 //                                                 screenshot.png
@@ -95,6 +99,23 @@ async function smoke(url, outDir) {
       await page.selectOption('#surface', picture);
     }
     await page.selectOption('#surface', '');
+    log.lightControls = await lightControls(page);
+    await page.selectOption('#light', '0');  // the showcase's sun: aim it
+    log.lightControls.sunRows = await rowsShown(page);
+    await page.fill('#light-azimuth', '90');
+    await page.fill('#light-elevation', '-30');
+    await page.selectOption('#light', '2');  // the showcase's spot: aim it, widen its cone
+    log.lightControls.spotRows = await rowsShown(page);
+    await page.fill('#light-azimuth', '180');
+    await page.fill('#light-elevation', '-60');
+    await page.fill('#light-outer', '40');
+    await page.fill('#light-inner', '10');
+    await page.selectOption('#light-kind', 'spot');
+    await page.click('#light-add');
+    log.lightControls.added = await page.evaluate(() => window.patchlight.viewer.state.lights.length);
+    log.lightControls.selected = await page.inputValue('#light');
+    await page.click('#light-remove');
+    log.lightControls.after = await lightState(page);
     await page.mouse.move(320, 240);
     await page.mouse.down();
     await page.mouse.move(360, 250, { steps: 4 });
@@ -102,6 +123,50 @@ async function smoke(url, outDir) {
     await page.waitForTimeout(200);
     log.stats = await page.textContent('#stats');
     await page.screenshot({ path: path.join(outDir, 'screenshot.png') });
+  });
+}
+
+async function lightControls(page) {
+  return page.evaluate(() => {
+    const values = (id) => [...document.querySelectorAll(`#${id} option`)].map((o) => o.value);
+    const panel = document.getElementById('light-panel');
+    return { kinds: values('light-kind'), falloffs: values('light-falloff'), lights: values('light'),
+      panelShown: !panel.hidden && panel.getClientRects().length > 0,
+      fieldsShown: !document.getElementById('light-fields').hidden };
+  });
+}
+
+async function rowsShown(page) {
+  return page.evaluate(() => Object.fromEntries(['position', 'aim', 'range', 'falloff', 'cone']
+    .map((row) => [row, !document.getElementById(`light-${row}-row`).hidden])));
+}
+
+// The lights as the page holds them and as its shader uniforms received them.
+async function lightState(page) {
+  return page.evaluate(() => {
+    const v = window.patchlight.viewer;
+    const u = v.uniforms;
+    const n = u.light_count.value;
+    return { state: v.state.lights, uniforms: {
+      count: n, direction: u.light_direction.value.slice(0, n).map((d) => d.toArray()),
+      cos_inner: u.light_cos_inner.value.slice(0, n), cos_outer: u.light_cos_outer.value.slice(0, n) } };
+  });
+}
+
+async function controls(url, scriptFile, outDir) {
+  const script = JSON.parse(fs.readFileSync(scriptFile, 'utf8'));
+  await withPage(`${url}?test=1`, outDir, async (page, log) => {
+    log.before = await lightControls(page);
+    for (const action of script.actions) {
+      if (action.select) await page.selectOption(action.select, action.value);
+      else if (action.fill) await page.fill(action.fill, String(action.value));
+      else if (action.click) await page.click(action.click);
+    }
+    log.after = await lightControls(page);
+    log.lights = await lightState(page);
+    const spec = { ...script.case, keep_lights: true };
+    const pixels = await page.evaluate((s) => window.patchlight.renderCase(s), spec);
+    fs.writeFileSync(path.join(outDir, `${spec.name}.rgba`), Buffer.from(pixels, 'base64'));
   });
 }
 
@@ -119,10 +184,11 @@ async function volumeLive(url, outDir) {
   });
 }
 
-const COMMANDS = { cases, smoke, 'volume-live': volumeLive };
+const COMMANDS = { cases, smoke, controls, 'volume-live': volumeLive };
 const [command, ...rest] = process.argv.slice(2);
 if (COMMANDS[command]) await COMMANDS[command](...rest);
 else {
-  console.error('usage: node browser.mjs cases URL CASES.json OUT_DIR | smoke URL OUT_DIR | volume-live URL OUT_DIR');
+  console.error('usage: node browser.mjs cases URL CASES.json OUT_DIR | smoke URL OUT_DIR | '
+    + 'controls URL SCRIPT.json OUT_DIR | volume-live URL OUT_DIR');
   process.exit(2);
 }

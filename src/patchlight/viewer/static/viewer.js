@@ -251,36 +251,118 @@ function bindControls(viewer, redraw) {
   $('reflectivity').oninput = reflectivity;
   $('reflectivity-material').onchange = reflectivity;
 
-  $('light-panel').hidden = st.lights.length === 0;
-  st.lights.forEach((l, i) => $('light').add(new Option(`${i + 1}: ${l.kind}`, i)));
+  bindLights(viewer, change);
+}
+
+// Aim of a light as the page shows it: azimuth (degrees from +Z towards +X) and elevation
+// (degrees above the horizon; negative shines down) of the way it travels, and back.
+function aimOf(direction) {
+  const [x, y, z] = direction;
+  const deg = (r) => Math.round(r * 180 / Math.PI * 100) / 100;
+  const azimuth = Math.abs(x) + Math.abs(z) < 1e-9 ? 0 : Math.atan2(x, z);
+  return [deg(azimuth), deg(Math.asin(Math.max(-1, Math.min(1, y))))];
+}
+
+function directionOf(azimuthDeg, elevationDeg) {
+  const az = azimuthDeg * Math.PI / 180;
+  const el = Math.max(-90, Math.min(90, elevationDeg)) * Math.PI / 180;
+  return [Math.cos(el) * Math.sin(az), Math.sin(el), Math.cos(el) * Math.cos(az)];
+}
+
+const degreesOf = (cosine) => Math.round(Math.acos(Math.max(-1, Math.min(1, cosine))) * 180 / Math.PI * 100) / 100;
+const cosineOf = (degrees) => Math.cos(degrees * Math.PI / 180);
+
+// A new light of `kind` where the viewer looks from: at the camera, shining along the view,
+// bright enough to give incident light 1 at the orbit target (J = pi d^2, E = pi).
+function newLight(viewer, kind) {
+  const eye = viewer.camera.position;
+  const forward = viewer.controls.target.clone().sub(eye);
+  const d = Math.max(forward.length(), 1e-3);
+  forward.normalize();
+  const strength = kind === 'directional' ? Math.PI : Math.PI * d * d;
+  return {
+    kind, position: eye.toArray(), direction: forward.toArray(), intensity: [strength, strength, strength],
+    falloff: viewer.falloffs[0], range: 0, cos_inner: cosineOf(20), cos_outer: cosineOf(30),
+  };
+}
+
+// The light panel: pick a light, add one of any kind, remove it; edit its position (point,
+// spot), aim (directional, spot), colour, intensity, range and falloff (point, spot) and
+// cone (spot). Kinds and falloffs are common.glsl's names, as the shaders number them.
+function bindLights(viewer, change) {
+  const st = viewer.state;
+  for (const kind of viewer.lightKinds) $('light-kind').add(new Option(kind, kind));
+  $('light-kind').value = 'point';
+  for (const falloff of viewer.falloffs) $('light-falloff').add(new Option(falloff, falloff));
   const current = () => st.lights[Number($('light').value)];
+  const listLights = (selected) => {
+    $('light').replaceChildren(...st.lights.map((l, i) => new Option(`${i + 1}: ${l.kind}`, i)));
+    if (st.lights.length) $('light').value = String(Math.min(selected, st.lights.length - 1));
+    $('light-fields').hidden = st.lights.length === 0;
+    $('light-remove').disabled = st.lights.length === 0;
+    $('light-add').disabled = st.lights.length >= viewer.maxLights;
+    showLight();
+  };
   const showLight = () => {
     const l = current();
     if (!l) return;
     const peak = Math.max(...l.intensity);
-    ['x', 'y', 'z'].forEach((axis, k) => {
-      $(`light-${axis}`).value = l.position[k];
-      $(`light-${axis}`).disabled = l.kind === 'directional';
-    });
+    const directional = l.kind === 'directional';
+    ['x', 'y', 'z'].forEach((axis, k) => { $(`light-${axis}`).value = l.position[k]; });
+    const [azimuth, elevation] = aimOf(l.direction);
+    $('light-azimuth').value = azimuth;
+    $('light-elevation').value = elevation;
     $('light-color').value = linearToHex(l.intensity.map((c) => (peak > 0 ? c / peak : 1)));
     $('light-intensity').value = peak;
     $('light-range').value = l.range;
     $('light-falloff').value = l.falloff;
-    $('light-range').disabled = $('light-falloff').disabled = l.kind === 'directional';
+    $('light-inner').value = degreesOf(l.cos_inner);
+    $('light-outer').value = degreesOf(l.cos_outer);
+    $('light-position-row').hidden = directional;
+    $('light-aim-row').hidden = l.kind === 'point';
+    $('light-range-row').hidden = $('light-falloff-row').hidden = directional;
+    $('light-cone-row').hidden = l.kind !== 'spot';
   };
-  const editLight = change(() => {
-    const l = current();
-    l.position = ['x', 'y', 'z'].map((axis) => Number($(`light-${axis}`).value));
+  const edit = (fn) => change(() => { const l = current(); if (l) fn(l); });
+  const position = edit((l) => { l.position = ['x', 'y', 'z'].map((axis) => Number($(`light-${axis}`).value)); });
+  const aim = edit((l) => {
+    l.direction = directionOf(Number($('light-azimuth').value), Number($('light-elevation').value));
+  });
+  const strength = edit((l) => {
     const colour = hexToLinear($('light-color').value);
     l.intensity = colour.map((c) => c * Math.max(0, Number($('light-intensity').value)));
+  });
+  const reach = edit((l) => {
     l.falloff = $('light-falloff').value;
     l.range = Math.max(0, Number($('light-range').value));
     if (l.falloff === 'range' && !(l.range > 0)) { l.range = viewer.radius; $('light-range').value = l.range; }
   });
+  const cone = edit((l) => {
+    const outer = Math.max(0, Math.min(90, Number($('light-outer').value)));
+    const inner = Math.max(0, Math.min(outer, Number($('light-inner').value)));
+    l.cos_outer = cosineOf(outer);
+    l.cos_inner = cosineOf(inner);
+  });
   $('light').onchange = showLight;
-  for (const id of ['light-x', 'light-y', 'light-z', 'light-intensity', 'light-range']) $(id).oninput = editLight;
-  for (const id of ['light-color', 'light-falloff']) $(id).onchange = editLight;
-  showLight();
+  for (const id of ['light-x', 'light-y', 'light-z']) $(id).oninput = position;
+  for (const id of ['light-azimuth', 'light-elevation']) $(id).oninput = aim;
+  $('light-intensity').oninput = strength;
+  $('light-color').onchange = strength;
+  $('light-range').oninput = reach;
+  $('light-falloff').onchange = reach;
+  for (const id of ['light-inner', 'light-outer']) $(id).oninput = cone;
+  $('light-add').onclick = change(() => {
+    if (st.lights.length >= viewer.maxLights) return;
+    st.lights.push(newLight(viewer, $('light-kind').value));
+    listLights(st.lights.length - 1);
+  });
+  $('light-remove').onclick = change(() => {
+    const i = Number($('light').value);
+    if (!(i >= 0 && i < st.lights.length)) return;
+    st.lights.splice(i, 1);
+    listLights(i);
+  });
+  listLights(0);
 }
 
 async function main() {
@@ -312,7 +394,8 @@ async function main() {
     models: viewer.models,
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
     // reflectivity, overlay, sky (draw the sky behind), camera {eye, target, fov}, width,
-    // height); RGBA bytes, base64.
+    // height; lights: the lights to draw, as the manifest lists them (default: the manifest's),
+    // or keep_lights: the lights as the controls left them); RGBA bytes, base64.
     renderCase(spec) {
       const st = viewer.state;
       st.model = spec.model;
@@ -324,7 +407,8 @@ async function main() {
       if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
       viewer.groundMap.configure(spec.radiosity);
       st.ambientCubeNaive = Boolean(spec.ambient_cube_naive);
-      st.lights = viewer.manifest.lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
+      const lights = spec.keep_lights ? st.lights : spec.lights ?? viewer.manifest.lights;
+      st.lights = lights.map((l) => ({ ...l, falloff: (l.kind !== 'directional' && spec.falloff) || l.falloff }));
       // the pixel comparisons cover surfaces only (alpha 0 elsewhere), unless a case asks for the sky
       viewer.sky.visible = Boolean(spec.sky && viewer.manifest.sky);
       viewer.apply();
