@@ -47,7 +47,7 @@ def test_volume_compact_and_spacing(cornell_bake, tmp_path, capsys):
     assert status == 0
     header = json.loads((tmp_path / "v" / "light_volume.json").read_text())
     assert header["layout"] == "compact" and header["dims"] == [3, 3, 3] and header["spacing"] == [0.25] * 3
-    assert [s["name"] for s in header["sections"]] == ["color", "intensity", "inside"]
+    assert [s["name"] for s in header["sections"]] == ["color", "intensity", "inside", "validity"]
     assert read_volume(tmp_path / "v").cube.shape == (6, 3, 3, 3, 3)
 
 

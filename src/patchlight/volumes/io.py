@@ -5,13 +5,14 @@ Header fields (every length in metres, +Y up, glTF's frame):
 | field      | value                                                                      |
 |------------|----------------------------------------------------------------------------|
 | format     | "patchlight-light-volume"                                                  |
-| version    | 1                                                                          |
+| version    | 2 (1: no `validity` section; this reader takes both)                       |
 | origin     | [x, y, z] of probe (0, 0, 0)                                               |
 | spacing    | [sx, sy, sz]: probe (i, j, k) sits at origin + (i sx, j sy, k sz)          |
 | dims       | [NX, NY, NZ] probe counts                                                  |
 | axes       | ["+X", "+Y", "+Z", "-X", "-Y", "-Z"]: the order of the six directions      |
 | units      | incident light I (cosine-weighted mean radiance, W m^-2 sr^-1), linear RGB |
 | layout     | "full" (six RGB values per probe) or "compact" (colour + six intensities)  |
+| sampling   | "validity-weighted trilinear" (below)                                      |
 | data       | file name of the binary data, next to the header                           |
 | byte_order | "little"                                                                   |
 | sections   | [{name, dtype, shape, offset, bytes}]: the arrays in the data file, C order |
@@ -21,7 +22,22 @@ after the other in axis order, x fastest (a WebGL 3D texture of NX x NY x 6 NZ t
 Layout "compact": `color` float32 [NZ, NY, NX, 3] (luminance 1) and `intensity` float32
 [6, NZ, NY, NX]; axis a's RGB is color x intensity[a] (see patchlight.volumes.volume).
 Both end with `inside` uint8 [NZ, NY, NX]: 1 where the probe lay inside geometry and its
-values were filled in from its neighbours.
+values were filled in from its neighbours; and `validity` float32 [NZ, NY, NX] in [0, 1]:
+the probe's weight in sampling (patchlight writes 0 inside geometry, 1 elsewhere; a
+reader must take any value in between as a weight). Version 1 files have no `validity`:
+it is 1 - inside.
+
+Sampling (how a point P between probes is lit; patchlight.shading.ambient_cube and
+ambient_cube.glsl do exactly this): g = clamp((P - origin) / spacing, 0, dims - 1); the
+cell's corners i0 = min(floor(g), max(dims - 2, 0)), i1 = min(i0 + 1, dims - 1), f = g - i0.
+Each of the eight corners c has its trilinear weight t_c (the product of f or 1 - f along
+each axis) and validity v_c. With s = sum t_c v_c and a = max(1e-3 - s, 0), corner c weighs
+t_c (v_c + a) / (s + a), and each axis' value is the weighted sum of the corners' values.
+Where s >= 1e-3 (any point with a valid corner less than 0.9 of a cell away) this is t_c v_c
+/ s: the probes inside geometry, whose filled values may come from the sunlit side of a
+wall, drop out, and a point beside the wall reads only the probes on its own side. Where
+all eight corners are invalid (s = 0) it is plain trilinear interpolation of the filled
+values, and in between the two blend continuously.
 """
 from __future__ import annotations
 
@@ -38,7 +54,9 @@ from .volume import AXES, LightVolume, compact, expand
 HEADER = "light_volume.json"
 DATA = "light_volume.bin"
 FORMAT = "patchlight-light-volume"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)
+SAMPLING = "validity-weighted trilinear"
 UNITS = "incident light I (cosine-weighted mean radiance, W m^-2 sr^-1), linear RGB"
 _DTYPES = {"float32": np.dtype("<f4"), "uint8": np.dtype("u1")}
 
@@ -51,7 +69,7 @@ def _sections(volume: LightVolume, layout: str) -> list[tuple[str, np.ndarray]]:
         arrays = [("color", color), ("intensity", intensity)]
     else:
         raise ValueError(f"unknown volume layout {layout!r}")
-    return arrays + [("inside", volume.inside.astype(np.uint8))]
+    return arrays + [("inside", volume.inside.astype(np.uint8)), ("validity", volume.validity.astype(np.float32))]
 
 
 def write_volume(out_dir, volume: LightVolume, layout: str = "full") -> dict:
@@ -67,7 +85,7 @@ def write_volume(out_dir, volume: LightVolume, layout: str = "full") -> dict:
         blobs.append(blob)
         offset += len(blob)
     header = {"format": FORMAT, "version": VERSION, **volume.grid.to_json(), "axes": list(AXES),
-              "units": UNITS, "layout": layout, "data": DATA, "byte_order": "little", "sections": sections}
+              "units": UNITS, "layout": layout, "sampling": SAMPLING, "data": DATA, "byte_order": "little", "sections": sections}
     with atomic_path(out_dir / DATA) as tmp:
         tmp.write_bytes(b"".join(blobs))
     with atomic_path(out_dir / HEADER) as tmp:
@@ -92,8 +110,14 @@ def read_volume(path) -> LightVolume:
     else:
         cube = _get(arrays, "cube", header_path)
     inside = _get(arrays, "inside", header_path).astype(bool)
+    if header["version"] == 1:
+        validity = np.where(inside, 0.0, 1.0).astype(np.float32)
+    else:
+        validity = np.array(_get(arrays, "validity", header_path), np.float32)
+        if not np.all((validity >= 0) & (validity <= 1)):  # NaN fails too
+            raise PatchlightError(f"{header_path}: validity values must lie in 0..1")
     try:
-        return LightVolume(grid, np.ascontiguousarray(cube, np.float32), inside)
+        return LightVolume(grid, np.ascontiguousarray(cube, np.float32), inside, validity)
     except ValueError:
         raise PatchlightError(f"{header_path}: section shapes do not match dims {list(grid.dims)}") from None
 
@@ -101,8 +125,9 @@ def read_volume(path) -> LightVolume:
 def _grid(header, where: Path) -> ProbeGrid:
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise PatchlightError(f"{where}: not a patchlight light volume (format is not {FORMAT!r})")
-    if header.get("version") != VERSION:
-        raise PatchlightError(f"{where}: volume version {header.get('version')!r}, this patchlight reads {VERSION}")
+    if type(header.get("version")) is not int or header["version"] not in READABLE_VERSIONS:
+        raise PatchlightError(f"{where}: volume version {header.get('version')!r}, this patchlight reads "
+                              f"{' and '.join(map(str, READABLE_VERSIONS))}")
     if header.get("axes") != list(AXES):
         raise PatchlightError(f"{where}: axes must be {list(AXES)}")
     try:

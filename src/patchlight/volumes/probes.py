@@ -5,9 +5,11 @@ incident light I): stratified cosine-weighted rays about a see the solved scene'
 light B = rho I + E where they hit a front face, the sky's radiance where they escape, and
 nothing where they hit a back face; the sun, point and spot lights are added by shadow rays
 (`radiosity.direct.direct_light` with the axis as the normal), as the lightmap bake does.
-A probe whose rays mostly hit back faces lies inside geometry: it is marked, and its values
-are filled from valid neighbours (fill.py), as are those of any axis whose own rays meet
-many back faces (a probe on a wall's face, looking into the wall).
+A probe whose rays mostly hit back faces lies inside geometry: it is marked, given validity
+0 (sampling then leaves it out wherever a valid probe is near, so no light leaks through
+the wall it sits in), and its values are filled from valid neighbours (fill.py), as are
+those of any axis whose own rays meet many back faces (a probe on a wall's face, looking
+into the wall).
 
 | name        | unit / type   | default        | meaning (range; typical)                                   |
 |-------------|---------------|----------------|------------------------------------------------------------|

@@ -13,7 +13,7 @@ from .volume import LightVolume
 def volume_bundle(pack, settings) -> dict:
     """The manifest's "volume" entry (viewer/bundle.py) for ShadingSettings `settings`: grid
     origin, spacing, dims; `texture`, the name of its (6 NZ, NY, NX, 4) texels in data.bin
-    (see ambient_cube.glsl); `inside`, the name of its (NZ, NY, NX) 0/1 flags; `baked`: False
+    (RGB light, alpha validity; see ambient_cube.glsl); `inside`, the name of its (NZ, NY, NX) 0/1 flags; `baked`: False
     when the model falls back to the sky as one probe (then the page adds no moving objects)."""
     volume: LightVolume = settings.cube_volume()
     grid = volume.grid

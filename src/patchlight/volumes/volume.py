@@ -10,6 +10,13 @@ the Rec. 709 luminance of axis a's RGB, and the colour is the sum of the six RGB
 the sum of the six intensities (so its luminance is 1). colour x intensity_a gives back axis
 a's RGB exactly when all six share one chromaticity, as under a single light; otherwise the
 six directions share the probe's mean chromaticity.
+
+Validity says how far a probe's values may be trusted when a point between probes is lit:
+1 for a probe in the open, 0 for one inside geometry, whose values are only guesses filled
+in from its neighbours (a probe inside a wall between a dark room and the sunlit outside
+sees neither). Sampling weights each of a cell's eight corners by its validity
+(patchlight.shading.ambient_cube), so a point in the room beside the wall reads the room's
+probes and not the wall's, as Unity's adaptive probe volumes do with their probe validity.
 """
 from __future__ import annotations
 
@@ -28,17 +35,21 @@ AXIS_VECTORS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0]
 class LightVolume:
     """grid: where the probes are; cube (6, NZ, NY, NX, 3) f32 incident light per axis (AXES
     order); inside (NZ, NY, NX) bool: probes found inside geometry, whose values were filled
-    in from valid neighbours."""
+    in from valid neighbours; validity (NZ, NY, NX) f32 in [0, 1]: each probe's weight when
+    points between probes are lit (module docstring), by default 0 inside geometry, else 1."""
 
     grid: ProbeGrid
     cube: np.ndarray
     inside: np.ndarray
+    validity: np.ndarray | None = None
 
     def __post_init__(self):
         shape = self.grid.shape
-        if self.cube.shape != (6, *shape, 3) or self.inside.shape != shape:
-            raise ValueError(f"LightVolume: cube {self.cube.shape} / inside {self.inside.shape} "
-                             f"do not match the grid's {shape}")
+        if self.validity is None:
+            self.validity = np.where(self.inside, 0.0, 1.0).astype(np.float32)
+        if self.cube.shape != (6, *shape, 3) or self.inside.shape != shape or self.validity.shape != shape:
+            raise ValueError(f"LightVolume: cube {self.cube.shape} / inside {self.inside.shape} / validity "
+                             f"{self.validity.shape} do not match the grid's {shape}")
 
 
 def compact(cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,8 +1,9 @@
 // ambient_cube.js: the light volume of ambient cubes in the viewer.
 //
 // volumeUniforms: the manifest's volume (bundle.py) as ambient_cube.glsl's uniforms: one 3D
-// float texture of NX x NY x 6 NZ texels (axis a's probes in slices a NZ .. (a + 1) NZ - 1),
-// fetched exactly, and the grid's origin, spacing and dims.
+// float RGBA texture of NX x NY x 6 NZ texels (axis a's probes in slices a NZ .. (a + 1) NZ - 1;
+// RGB the axis' incident light, alpha the probe's validity, 0 inside geometry, which the
+// shader's interpolation weights by), fetched exactly, and the grid's origin, spacing and dims.
 //
 // installVolume: a panel section with the naive / squared weights toggle and, when a baked
 // volume is loaded, a sphere and a character-sized box moving through the scene lit by the
@@ -21,6 +22,7 @@ export function volumeUniforms(bundle) {
   const [nx, ny, nz] = v.dims;
   const texture = new THREE.Data3DTexture(bundle.array(v.texture), nx, ny, 6 * nz);
   texture.format = THREE.RGBAFormat;
+  texture.premultiplyAlpha = false; // alpha is the probe's validity, never to scale the RGB
   texture.type = THREE.FloatType;
   texture.minFilter = texture.magFilter = THREE.NearestFilter;
   texture.generateMipmaps = false;
