@@ -4,11 +4,25 @@ A probe inside a wall sees only the wall's back faces, and a probe exactly on a 
 sees them on the axes that point into it; those values are meaningless, and a moving object
 beside the wall interpolates between them and the probes in the room. So each invalid value
 (probe, axis) takes the mean of the valid values of the same axis among the probe's 26
-neighbours, weighted by 1 / distance^2 in grid steps (faces 1, edges 1/2, corners 1/3). When the probe has an open
-side (the mean direction of its rays that met no back face), only neighbours within
-OPEN_SIDE_ANGLE of it count, so a probe on a wall's inner face takes the room's light and
-not the light outside (a neighbour across the wall, even nearly sideways, can be a hundred
-times brighter). Rings grow inwards until every value is known.
+neighbours, weighted by 1 / distance^2 in grid steps (faces 1, edges 1/2, corners 1/3).
+Rings grow inwards until every value is known.
+
+A probe with some valid axes (on a wall's face) has an open side, the mean direction of
+its rays that met no back face: only neighbours within OPEN_SIDE_ANGLE of it count, so a
+probe on a wall's inner face takes the room's light and not the light outside (a neighbour
+across the wall, even nearly sideways, can be a hundred times brighter).
+
+A probe whose every axis is invalid lies inside geometry, between places that may differ a
+hundredfold (a dark room and the sunlit outside) with nothing to tell which one its values
+stand for; its open side, if any, is no guide (rays leak through coincident faces where
+two solid boxes touch, and point into the other box). So all 26 neighbours count, each
+weight divided by the square of that neighbour's luminance (the mean over its known axes):
+where the neighbours agree this is their mean; where they differ the dim side's light wins
+(with room probes at L and outside ones at 100 L, the outside adds L / 100 per neighbour).
+Sunlight leaking into an interior shows far more than a dim guess. Sampling reads these
+values only where no valid probe is near (it weights each probe by its validity, 0 inside
+geometry; patchlight.volumes.io, "Sampling"): deep inside geometry, or on a surface lying
+on a plane of probes that are all inside geometry.
 """
 from __future__ import annotations
 
@@ -17,8 +31,10 @@ import itertools
 import numpy as np
 
 from ..errors import PatchlightError
+from ..shading.environment import LUMINANCE
 
 OPEN_SIDE_ANGLE = 70.0  # degrees; face and diagonal neighbours into the room, none across the wall
+DIM_FLOOR = 1e-3        # luminances below this x the mean one weigh as this: black is no infinity
 _NEIGHBOURS = np.array([d for d in itertools.product((-1, 0, 1), repeat=3) if d != (0, 0, 0)])  # (dz, dy, dx)
 
 
@@ -30,20 +46,24 @@ def fill_invalid(cube: np.ndarray, invalid: np.ndarray, open_side: np.ndarray) -
     if not known.any():
         raise PatchlightError("every probe lies inside geometry: move --bounds into the open part of the scene")
     values = np.where(known[..., None], cube, 0.0).astype(np.float32)
-    side = [_side_weight(open_side, offset) for offset in _NEIGHBOURS]
+    inside = invalid.all(axis=0)  # (NZ, NY, NX)
+    side = [_side_weight(open_side, offset) * ~inside for offset in _NEIGHBOURS]  # inside: no open side
     _, nz, ny, nx = known.shape
+    scale = float((values @ LUMINANCE)[known].mean()) or 1.0  # luminances relative to the mean known one
     while not known.all():
         # unknown values hold zeros, so they add nothing to the sums
         padded_known = np.pad(known.astype(np.float32), ((0, 0), (1, 1), (1, 1), (1, 1)))
         padded_values = np.pad(values, ((0, 0), (1, 1), (1, 1), (1, 1), (0, 0)))
+        padded_dim = np.pad(_inverse_square_luminance(values, known, scale), 1)
         sums = {kind: (np.zeros_like(values), np.zeros(known.shape, np.float32)) for kind in ("open", "any")}
         for (dz, dy, dx), s in zip(_NEIGHBOURS, side):
-            window = (slice(None), slice(1 + dz, 1 + dz + nz), slice(1 + dy, 1 + dy + ny), slice(1 + dx, 1 + dx + nx))
-            k, v = padded_known[window], padded_values[window]
+            window = (slice(1 + dz, 1 + dz + nz), slice(1 + dy, 1 + dy + ny), slice(1 + dx, 1 + dx + nx))
+            k, v = padded_known[(slice(None), *window)], padded_values[(slice(None), *window)]
             w = np.float32(1.0 / (dz * dz + dy * dy + dx * dx))
-            for kind, factor in (("open", w * s), ("any", w)):
+            lean = np.where(inside, padded_dim[window], np.float32(1))  # inside geometry: lean to the dim side
+            for kind, factor in (("open", w * s), ("any", w * lean)):
                 total, weight = sums[kind]
-                total += np.asarray(factor)[..., None] * v
+                total += factor[..., None] * v
                 weight += factor * k
         (open_total, open_weight), (any_total, any_weight) = sums["open"], sums["any"]
         use_open = open_weight > 0
@@ -62,3 +82,11 @@ def _side_weight(open_side: np.ndarray, offset: np.ndarray) -> np.ndarray:
     within = open_side @ direction > np.cos(np.radians(OPEN_SIDE_ANGLE))
     none = ~np.any(open_side != 0, axis=-1)
     return (within | none).astype(np.float32)
+
+
+def _inverse_square_luminance(values: np.ndarray, known: np.ndarray, scale: float) -> np.ndarray:
+    """(NZ, NY, NX) f32: 1 / the square of the mean luminance of each probe's known values
+    (6, NZ, NY, NX, 3) over `scale`, taken as at least DIM_FLOOR; 0 where it has none."""
+    count = known.sum(axis=0)
+    mean = (values @ LUMINANCE).sum(axis=0) / np.maximum(count, 1) / scale  # unknown values are zeros
+    return np.where(count > 0, 1 / np.maximum(mean, DIM_FLOOR) ** 2, 0).astype(np.float32)
