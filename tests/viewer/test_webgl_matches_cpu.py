@@ -1,7 +1,8 @@
 """Every model and option, drawn by the viewer's GLSL in headless Chromium (SwiftShader
 WebGL2), equals the CPU renderer's picture of the same scene and camera: over the pixels
 both cover, mean |difference| < 1/255 and the 99th percentile < 4/255 (8-bit sRGB values
-of the same film exposure, which both apply in their display transform)."""
+of the same film exposure, which both apply in their display transform). Besides the
+showcase's one light of each kind, cases with several lights of each kind (up to MAX_LIGHTS)."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,13 +14,45 @@ from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.shading import LIT_MODELS, MODELS
 from patchlight.render.target import Target
-from patchlight.scene.model import Material
+from patchlight.scene.model import Light, Material
+from patchlight.shading.lights import MAX_LIGHTS, from_scene_light
 from patchlight.shading.textures import _bilinear_taps, cube_face_coords, sample_cube
 from patchlight.viewer.app import make_server
 
 SIZE = 128
 EXPOSURE = 1.0
 CAMERA = {"eye": list(SHOWCASE_CAMERA[0]), "target": list(SHOWCASE_CAMERA[1]), "fov": SHOWCASE_CAMERA[2]}
+
+
+def _light(kind, color, strength, position=(0.0, 0.0, 0.0), direction=(0.0, -1.0, 0.0), range_=None,
+           cone=(0.0, 0.5)) -> Light:
+    d = np.asarray(direction, np.float32)
+    return Light(kind, np.array(color, np.float32), strength, position=np.array(position, np.float32),
+                 direction=d / np.linalg.norm(d), range=range_, inner_cone=cone[0], outer_cone=cone[1])
+
+
+# Several lights of each kind at once: every slot of the shaders' light arrays in use.
+LIGHT_SETS = {
+    "pairs": [  # two of each kind; one point light without a range
+        _light("directional", (1.0, 0.9, 0.8), 2.0, direction=(-0.3, -0.8, -0.5)),
+        _light("directional", (0.3, 0.4, 1.0), 1.5, direction=(0.6, -0.5, 0.2)),
+        _light("point", (1.0, 0.3, 0.2), 15.0, position=(2.0, 1.2, 1.5), range_=5.0),
+        _light("point", (0.2, 1.0, 0.4), 10.0, position=(-1.8, 0.8, 1.8)),
+        _light("spot", (1.0, 1.0, 0.6), 40.0, position=(1.5, 2.5, 1.0), direction=(-0.4, -1.0, -0.3),
+               range_=6.0, cone=(0.2, 0.45)),
+        _light("spot", (0.6, 0.6, 1.0), 30.0, position=(-1.0, 2.0, -1.5), direction=(0.3, -1.0, 0.5),
+               range_=7.0, cone=(0.1, 0.35)),
+    ],
+    "eight": [  # MAX_LIGHTS: four points and four spots, all with a range
+        *(_light("point", c, 8.0, position=p, range_=r) for c, p, r in [
+            ((1.0, 0.2, 0.2), (2.2, 0.5, 1.2), 3.5), ((0.2, 1.0, 0.2), (-2.0, 0.3, 1.0), 4.0),
+            ((0.2, 0.3, 1.0), (0.5, 1.8, 2.0), 3.0), ((1.0, 1.0, 0.3), (-0.5, 0.0, -2.2), 5.0)]),
+        *(_light("spot", c, 25.0, position=p, direction=d, range_=6.0, cone=(0.15, 0.4)) for c, p, d in [
+            ((1.0, 0.6, 0.2), (0.0, 3.0, 0.0), (0.0, -1.0, 0.0)), ((0.3, 1.0, 1.0), (2.5, 2.0, 2.5), (-1, -1, -1)),
+            ((1.0, 0.3, 1.0), (-2.5, 2.0, 2.0), (1, -1.2, -1)), ((0.8, 0.8, 0.8), (2.0, 1.5, -2.5), (-0.5, -1, 1))]),
+    ],
+}
+assert len(LIGHT_SETS["eight"]) == MAX_LIGHTS
 
 
 def case_list() -> list[dict]:
@@ -34,7 +67,19 @@ def case_list() -> list[dict]:
         for options in variants:
             name = "-".join([model, *(k if v is True else str(v) for k, v in options.items())])
             cases.append({"name": name, "model": model, **options})
+    for name, model, lights, options in [("lambert-pairs", "lambert", "pairs", {}),
+                                         ("phong-pairs", "phong", "pairs", {}),
+                                         ("blinn-phong-pairs-per_vertex", "blinn-phong", "pairs", {"per_vertex": True}),
+                                         ("self-shadow-pairs-normal_map", "self-shadow", "pairs", {"normal_map": True}),
+                                         ("lambert-eight-range", "lambert", "eight", {"falloff": "range"}),
+                                         ("phong-eight", "phong", "eight", {})]:
+        cases.append({"name": name, "model": model, "lights": lights, **options})
     return cases
+
+
+def page_lights(name: str, falloff: str = "inverse-square") -> list[dict]:
+    """A light set as the manifest lists lights (the page's renderCase takes them so)."""
+    return [from_scene_light(light, falloff, name).to_json() for light in LIGHT_SETS[name]]
 
 
 CASES = case_list()
@@ -51,6 +96,9 @@ def webgl(browser, showcase, tmp_path_factory):
     """{case name: (SIZE, SIZE, 4) uint8} from one Chromium run over every case."""
     target, _ = showcase
     specs = [dict(c, camera=CAMERA, width=SIZE, height=SIZE, exposure=EXPOSURE) for c in CASES]
+    for spec in specs:
+        if "lights" in spec:
+            spec["lights"] = page_lights(spec["lights"])
     with make_server(target, target_settings(target), exposure=EXPOSURE) as server:
         pictures, _ = browser.cases(server.url, specs, tmp_path_factory.mktemp("webgl"))
     return pictures
@@ -58,8 +106,9 @@ def webgl(browser, showcase, tmp_path_factory):
 
 def cpu_picture(showcase, case: dict) -> tuple[np.ndarray, np.ndarray]:
     target, renderer = showcase
-    options = {k: v for k, v in case.items() if k not in ("name", "model")}
-    settings = target_settings(target, model=case["model"], **options)
+    options = {k: v for k, v in case.items() if k not in ("name", "model", "lights")}
+    lights = LIGHT_SETS[case["lights"]] if "lights" in case else None
+    settings = target_settings(target, model=case["model"], lights=lights, **options)
     camera = Camera(np.array(CAMERA["eye"]), np.array(CAMERA["target"]), CAMERA["fov"])
     result = renderer.render(settings, camera, SIZE, SIZE)
     return display_pixels(result.radiance, EXPOSURE), result.covered
@@ -75,7 +124,8 @@ def test_webgl_equals_cpu(webgl, showcase, case):
 @pytest.mark.parametrize("gpu_case, cpu_case", [("phong", "blinn-phong"), ("lambert", "lambert-per_vertex"),
                                                 ("lambert", "lambert-normal_map"), ("lambert", "lambert-range"),
                                                 ("phong", "self-shadow"), ("lightmap", "lightmap-lightmap_specular"),
-                                                ("lambert", "envmap"), ("lambert", "hemisphere")])
+                                                ("lambert", "envmap"), ("lambert", "hemisphere"),
+                                                ("lambert", "lambert-pairs"), ("lambert-pairs", "lambert-eight-range")])
 def test_the_comparison_tells_every_option_apart(webgl, showcase, gpu_case, cpu_case):
     """The thresholds are tight enough to fail when the two sides shade differently."""
     case = next(c for c in CASES if c["name"] == cpu_case)
