@@ -341,13 +341,15 @@ def _final_size(packing, resolution):
 
 
 def _split_vertices(scene, vmapping, indices, uv1):
-    """A new Scene whose vertex i copies scene vertex vmapping[i], with new indices and uv1."""
+    """A new Scene whose vertex i copies scene vertex vmapping[i], with new indices and uv1
+    (its provenance split the same way, so scene.glb can map the vertices back to the file's)."""
     def pick(array):
         return None if array is None else np.ascontiguousarray(array[vmapping])
 
+    provenance = None if scene.provenance is None else scene.provenance.split(vmapping)
     return dataclasses.replace(scene, positions=pick(scene.positions), normals=pick(scene.normals),
                                uv0=pick(scene.uv0), tangents=pick(scene.tangents), colors=pick(scene.colors),
-                               indices=np.ascontiguousarray(indices, np.int32), uv1=uv1)
+                               indices=np.ascontiguousarray(indices, np.int32), uv1=uv1, provenance=provenance)
 
 
 def _shared_edge_components(keys):

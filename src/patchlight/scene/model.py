@@ -69,12 +69,50 @@ class Light:
 
 
 @dataclass
+class Provenance:
+    """Where each triangle and vertex of a glTF-loaded Scene came from in its file, so that
+    scene.glb can be written as that file plus lightmap UVs (`scene.gltf.save_baked_glb`).
+
+    path: the glTF file; stamp: its (size in bytes, mtime in ns) when it was read.
+    triangle_node (T,) i32: the node whose mesh instance holds triangle t; triangle_mesh (T,) i32:
+    that node's mesh; triangle_primitive (T,) i32: the primitive's index in mesh.primitives.
+    vertex_node (V,) i32 and vertex_primitive (V,) i32: the node and the first primitive of its
+    mesh whose attribute accessors hold vertex v; vertex_source (V,) i32: v's element in those
+    accessors (so its local, untransformed attributes are accessor[vertex_source[v]]).
+    Triangles keep the file's corners, except that the loader reverses the winding under a
+    mirroring node (negative determinant); the writer reverses it back.
+    """
+
+    path: str
+    stamp: tuple[int, int]
+    triangle_node: np.ndarray
+    triangle_mesh: np.ndarray
+    triangle_primitive: np.ndarray
+    vertex_node: np.ndarray
+    vertex_primitive: np.ndarray
+    vertex_source: np.ndarray
+
+    def split(self, vmapping: np.ndarray) -> "Provenance":
+        """The provenance of a vertex split where new vertex i copies vertex vmapping[i]
+        (triangles keep their order)."""
+        return Provenance(self.path, self.stamp, self.triangle_node, self.triangle_mesh, self.triangle_primitive,
+                          self.vertex_node[vmapping], self.vertex_primitive[vmapping], self.vertex_source[vmapping])
+
+    def fits(self, n_vertices: int, n_triangles: int) -> bool:
+        """True when the arrays have the scene's vertex and triangle counts."""
+        return (all(len(a) == n_triangles for a in (self.triangle_node, self.triangle_mesh, self.triangle_primitive))
+                and all(len(a) == n_vertices for a in (self.vertex_node, self.vertex_primitive, self.vertex_source)))
+
+
+@dataclass
 class Scene:
     """One triangle soup in world space.
 
     positions (V, 3) f32; normals (V, 3) f32 unit; uv0 (V, 2) f32; uv1 (V, 2) f32 or None
     (the lightmap UVs, TEXCOORD_1); tangents (V, 4) f32 or None; colors (V, 4) f32 or None;
-    indices (T, 3) i32; material_ids (T,) i32 into `materials`.
+    indices (T, 3) i32; material_ids (T,) i32 into `materials`.  provenance: where a glTF
+    scene's triangles and vertices came from (None for built-in scenes); a stage that re-indexes
+    vertices carries it (`Provenance.split`), one that drops or reorders triangles sets it to None.
     """
 
     positions: np.ndarray
@@ -91,6 +129,7 @@ class Scene:
     name: str = "scene"
     source: str = ""
     extras: dict = field(default_factory=dict)
+    provenance: Provenance | None = None
 
     @property
     def label(self) -> str:
@@ -111,10 +150,12 @@ class Scene:
         return used.min(axis=0), used.max(axis=0)
 
     def has_light(self) -> bool:
-        """True when anything lights the scene: a lamp, an emissive material or a sky."""
-        emissive = any(m.is_emissive or m.emissive_texture is not None for m in self.materials)
+        """True when anything lights the scene: a lamp of some power, an emissive material (a
+        positive emissive factor: glTF multiplies any emissive texture by it) or a sky."""
+        lamps = any(np.any(light.radiometric > 0) for light in self.lights)
+        emissive = any(m.is_emissive for m in self.materials)
         sky_lit = self.sky is not None and not self.sky.is_black()
-        return bool(self.lights) or emissive or sky_lit
+        return lamps or emissive or sky_lit
 
     def validate(self) -> None:
         """Refuse NaN or infinite positions and out-of-range indices with one clear line."""
