@@ -9,7 +9,9 @@ Three models, all in radiance units (W/(m^2 sr)), linear RGB, +Y up:
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -19,14 +21,21 @@ def _rgb(value) -> np.ndarray:
     return arr
 
 
+def _shortest(rgb) -> list[float]:
+    """float32 values as the shortest decimals that read back to them (0.4, not 0.4000000059604645)."""
+    return [float(str(np.float32(v))) for v in rgb]
+
+
 @dataclass
 class Sky:
     """kind: "uniform" | "gradient" | "image". colors: (3, 3) zenith, horizon, ground rows
-    (uniform uses row 0). image: (H, W, 3) float32 linear radiance or None."""
+    (uniform uses row 0). image: (H, W, 3) float32 linear radiance or None. source: the file an
+    image sky was read from, when known (what `to_extras` records)."""
 
     kind: str
     colors: np.ndarray
     image: np.ndarray | None = None
+    source: str | None = None
 
     @classmethod
     def uniform(cls, rgb) -> "Sky":
@@ -38,8 +47,9 @@ class Sky:
         return cls("gradient", np.stack([_rgb(zenith), _rgb(horizon), _rgb(ground)]))
 
     @classmethod
-    def from_image(cls, image: np.ndarray) -> "Sky":
-        return cls("image", np.zeros((3, 3), np.float32), np.ascontiguousarray(image[..., :3], np.float32))
+    def from_image(cls, image: np.ndarray, source=None) -> "Sky":
+        return cls("image", np.zeros((3, 3), np.float32), np.ascontiguousarray(image[..., :3], np.float32),
+                   None if source is None else str(source))
 
     def is_black(self) -> bool:
         if self.kind == "image":
@@ -68,3 +78,22 @@ class Sky:
             return {"kind": "image", "size": list(self.image.shape[:2])}
         return {"kind": self.kind, "zenith": self.colors[0].tolist(),
                 "horizon": self.colors[1].tolist(), "ground": self.colors[2].tolist()}
+
+    def to_extras(self, folder=None) -> dict | None:
+        """The sky as glTF `extras.patchlight.sky`, the form `patchlight.scene.gltf` reads back
+        to an equal Sky: {"uniform": rgb}, {"gradient": {zenith, horizon, ground}} or
+        {"image": path} (relative to `folder`, the glTF file's directory, when it has one; else
+        absolute).  None for an image sky whose file is unknown."""
+        if self.kind == "uniform":
+            return {"uniform": _shortest(self.colors[0])}
+        if self.kind == "gradient":
+            return {"gradient": {name: _shortest(row) for name, row in zip(("zenith", "horizon", "ground"), self.colors)}}
+        if self.source is None:
+            return None
+        source = Path(self.source).absolute()
+        if folder is not None:
+            try:
+                return {"image": Path(os.path.relpath(source, Path(folder).absolute())).as_posix()}
+            except ValueError:  # another drive
+                pass
+        return {"image": source.as_posix()}
