@@ -22,7 +22,9 @@ Accessors may be strided, normalized integers (KHR_mesh_quantization) or sparse.
   `extras` may hold {"falloff": "inverse-square" | "range", "angle": sun diameter in radians}.
 
 `Scene.extras` gets "skipped_primitives" (points/lines), "degenerate_triangles" and
-"warnings" (a list of one-line strings).
+"warnings" (a list of one-line strings).  `Scene.provenance` (see `model.Provenance`) records,
+per triangle, its node, mesh and primitive and, per vertex, its node, primitive and element in
+the primitive's accessors, plus the file's size and mtime: what the writer maps back with.
 
 Sky: the default scene's `extras` (else `asset.extras`) may hold one of
 
@@ -34,11 +36,29 @@ in linear radiance (W/(m^2 sr)); see `patchlight.scene.sky` for the models.
 
 Export
 ------
-`save_baked_glb` writes one .glb: the world-space triangle soup (identity nodes), one mesh
-per material, every mesh sharing the POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 (= `uv1`
-exactly), COLOR_0 and TANGENT accessors; materials (metallicFactor 0: patchlight surfaces are
-diffuse), lights in photometric units, uniform/gradient skies in the scene's extras, and the
-RGBM lightmap as a texture named "patchlight_lightmap", described in the root `extras`:
+`save_baked_glb` writes one .glb.  For a scene loaded from a glTF file (`_SourceWriter`) it is
+that file's document as it was (JSON objects copied, not re-encoded): node hierarchy, names,
+transforms, materials with every field and extension, textures, samplers, images (their bytes;
+files beside a .gltf are embedded), cameras, lights, skins, animations, extras.  Each mesh
+instance's triangle primitives are rewritten in the primitive's local space with the vertices
+the lightmap UVs split (every attribute and morph target copied through the vertex mapping in
+its stored component type) plus TEXCOORD_1 (= `uv1` exactly); a mesh drawn by several nodes
+gets one copy per further node, "<mesh> (lightmap 2)", ... (each instance has its own lightmap
+region).  Where the file's own TEXCOORD_1 was used, the primitives keep their accessors and
+indices untouched.  Accessors and bufferViews nothing refers to any more are dropped (unless
+the file uses an extension this writer does not know).  When the file has changed since it
+was loaded, or the provenance no longer describes the scene, the flattened copy below is
+written instead, with a warning.
+
+For a built-in scene: the world-space triangle soup (identity nodes), one mesh per material,
+every mesh sharing the POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 (= `uv1` exactly), COLOR_0
+and TANGENT accessors; materials (metallicFactor 0: patchlight surfaces are diffuse), lights
+in photometric units and the camera.
+
+Both: the bake's sky in `extras.patchlight.sky` of the scene the loader reads (an image sky
+as a path relative to the .glb, when its file is known: `Sky.to_extras`), and the RGBM
+lightmap as a texture named "patchlight_lightmap" (re-baking a scene.glb replaces its image),
+described in the root `extras`:
 
     {"patchlight": {"lightmap": {"texture": <texture index>, "texCoord": 1, "encoding": "RGBM",
                                  "rgbmRange": <float>, ...the caller's metadata}}}
@@ -47,7 +67,6 @@ three.js's GLTFLoader reads TEXCOORD_1 as the `uv1` attribute and the root extra
 `gltf.userData`; the viewer gets the texture with
 `gltf.parser.getDependency("texture", gltf.userData.patchlight.lightmap.texture)` and decodes
 RGBM as rgb * a * rgbmRange (the texture is linear data, no sRGB, no mipmaps, v = 0 at the top).
-Image skies are not written (the bake's own metadata records them).
 """
 from __future__ import annotations
 
@@ -56,6 +75,7 @@ import binascii
 import json
 import math
 import struct
+import warnings
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -67,7 +87,7 @@ import pygltflib as gl
 from ..errors import PatchlightError
 from ..imaging.color import linear_to_srgb, srgb_to_linear
 from ..imaging.io import atomic_path, decode_image, encode_png, read_bytes, read_environment
-from .model import Light, Material, Scene, vertex_normals
+from .model import Light, Material, Provenance, Scene, vertex_normals
 from .sky import Sky
 
 # Photometric -> radiometric: 683 lm/W at 555 nm (KHR_lights_punctual intensities are lux / candela).
@@ -95,6 +115,7 @@ _DEGENERATE_SINE = 1e-7  # |e1 x e2| below this times the longest edge squared: 
 def load_gltf(path) -> Scene:
     """Read a .gltf or .glb file into one world-space `Scene` (see the module docstring)."""
     path = Path(path)
+    stamp = _file_stamp(path)  # before reading: a file changed meanwhile never matches it later
     doc, blob = _read_document(path)
     try:
         scene = _Importer(path, doc, blob).scene()
@@ -102,7 +123,17 @@ def load_gltf(path) -> Scene:
         # JSON values of the wrong type (a string where a list belongs, ...) surface as these.
         raise PatchlightError(f"{path}: malformed glTF ({type(exc).__name__}: {exc})") from exc
     scene.validate()
+    scene.provenance.path, scene.provenance.stamp = str(path), stamp
     return scene
+
+
+def _file_stamp(path: Path) -> tuple[int, int] | None:
+    """(size, mtime in ns) of a file: how save_baked_glb knows the source has not changed."""
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return status.st_size, status.st_mtime_ns
 
 
 def _read_document(path: Path) -> tuple[gl.GLTF2, bytes | None]:
@@ -182,8 +213,11 @@ class _Block:
     tangents: np.ndarray | None
     colors: np.ndarray | None
     mirrored: bool
+    node: int = -1       # provenance: the node, and the first primitive of its mesh with these accessors
+    primitive: int = -1
     triangles: list[np.ndarray] = field(default_factory=list)
     material_ids: list[np.ndarray] = field(default_factory=list)
+    sources: list[tuple[int, int, int, int]] = field(default_factory=list)  # (node, mesh, primitive, count)
 
 
 class _Importer:
@@ -200,8 +234,8 @@ class _Importer:
     def fail(self, what: str) -> PatchlightError:
         return PatchlightError(f"{self.path}: {what}")
 
-    def vector(self, value, default, n: int, what: str) -> np.ndarray:
-        """A list of n finite numbers as float32 (`default` when absent, if there is one)."""
+    def vector(self, value, default, n: int, what: str, lo: float = -math.inf, hi: float = math.inf) -> np.ndarray:
+        """A list of n finite numbers in [lo, hi] as float32 (`default` when absent, if there is one)."""
         if value is None and default is not None:
             value = default
         try:
@@ -210,6 +244,8 @@ class _Importer:
             array = np.full(n, np.nan)
         if not np.all(np.isfinite(array)):
             raise self.fail(f"{what}: want {n} finite numbers, got {value!r}"[:200])
+        if not np.all((array >= lo) & (array <= hi)):
+            raise self.fail(f"{what}: want {n} numbers in [{lo:g}, {hi:g}], got {value!r}"[:200])
         return array.astype(np.float32)
 
     def item(self, items: list | None, index, what: str):
@@ -392,13 +428,14 @@ class _Importer:
                 self.warnings.append(f"mesh {label}: skinning and morph targets ignored (rest pose used)")
             for number, primitive in enumerate(mesh.primitives or []):
                 self._add_primitive(blocks, primitive, world, f"mesh {label} primitive {number}", label,
-                                    default_material)
+                                    default_material, (node_index, node.mesh, number))
         self._warn_about_instances(uses, blocks.values())
         return list(blocks.values())
 
     def _add_primitive(self, blocks: dict[tuple, _Block], primitive: gl.Primitive, world: np.ndarray,
-                       where: str, label: str, default_material: int) -> None:
-        """Append one primitive's triangles to the block of its accessors under `world` (made on first use)."""
+                       where: str, label: str, default_material: int, source: tuple[int, int, int]) -> None:
+        """Append one primitive's triangles to the block of its accessors under `world` (made on
+        first use); source = (node, mesh, primitive number), kept as the Scene's provenance."""
         mode = _TRIANGLES if primitive.mode is None else primitive.mode
         if mode in _POINTS_AND_LINES:
             self.skipped += 1
@@ -409,6 +446,7 @@ class _Importer:
         key = (world.tobytes(), tuple(sorted(attributes.items())))
         if key not in blocks:
             blocks[key] = self._block(attributes, world, where, label)
+            blocks[key].node, blocks[key].primitive = source[0], source[2]
         block = blocks[key]
         triangles = self._triangles(primitive, mode, len(block.positions), where)
         material = primitive.material
@@ -418,6 +456,7 @@ class _Importer:
             self.item(self.doc.materials, material, "material")
         block.triangles.append(triangles)
         block.material_ids.append(np.full(len(triangles), material, np.int32))
+        block.sources.append((*source, len(triangles)))
 
     def _block(self, attributes: dict[str, int], world: np.ndarray, where: str, label: str) -> _Block:
         if "POSITION" not in attributes:
@@ -485,7 +524,7 @@ class _Importer:
         """Concatenate the blocks into the scene arrays, dropping degenerate triangles."""
         if not blocks:
             raise self.fail(f"no triangles ({self.skipped} point/line primitives skipped)")
-        degenerate, offset, indices, material_ids = 0, 0, [], []
+        degenerate, offset, indices, material_ids, sources = 0, 0, [], [], []
         for block in blocks:
             triangles = np.concatenate(block.triangles)
             keep = ~_degenerate(block.positions, triangles)
@@ -495,6 +534,8 @@ class _Importer:
                 block.normals = vertex_normals(block.positions, triangles)
             indices.append(triangles + offset)
             material_ids.append(np.concatenate(block.material_ids)[keep])
+            sources.append(np.repeat(np.array([s[:3] for s in block.sources], np.int32).reshape(-1, 3),
+                                     [s[3] for s in block.sources], axis=0)[keep])
             offset += len(block.positions)
         indices = np.concatenate(indices).astype(np.int32)
         if len(indices) == 0:
@@ -511,6 +552,14 @@ class _Importer:
                       colors=_fill_colors(blocks))
         scene.extras.update(skipped_primitives=self.skipped, degenerate_triangles=degenerate,
                             warnings=self.warnings)
+        sources = np.concatenate(sources)
+        count = [len(b.positions) for b in blocks]
+        scene.provenance = Provenance(
+            path=str(self.path), stamp=(0, 0), triangle_node=sources[:, 0].copy(),
+            triangle_mesh=sources[:, 1].copy(), triangle_primitive=sources[:, 2].copy(),
+            vertex_node=np.repeat(np.array([b.node for b in blocks], np.int32), count),
+            vertex_primitive=np.repeat(np.array([b.primitive for b in blocks], np.int32), count),
+            vertex_source=np.concatenate([np.arange(n, dtype=np.int32) for n in count]))
         return scene
 
     def _all_or_none(self, blocks: list[_Block], name: str, attribute: str) -> np.ndarray | None:
@@ -531,15 +580,17 @@ class _Importer:
         where = f"material {name!r}"
         pbr = source.pbrMetallicRoughness or gl.PbrMetallicRoughness()
         material = Material(name=name, double_sided=bool(source.doubleSided))
-        material.base_color = self.vector(pbr.baseColorFactor, [1.0, 1.0, 1.0, 1.0], 4, f"{where} baseColorFactor")
+        material.base_color = self.vector(pbr.baseColorFactor, [1.0, 1.0, 1.0, 1.0], 4, f"{where} baseColorFactor",
+                                          0.0, 1.0)  # a reflectance above 1 would make light
         base = self._texture(pbr.baseColorTexture, f"{where} baseColorTexture")
         if base is not None:
             rgba = _rgba(base)
             rgba[..., :3] = srgb_to_linear(rgba[..., :3])
             material.base_color_texture = rgba
-        strength = float(((source.extensions or {}).get("KHR_materials_emissive_strength") or {})
-                         .get("emissiveStrength", 1.0))
-        emissive = self.vector(source.emissiveFactor, [0.0, 0.0, 0.0], 3, f"{where} emissiveFactor")
+        strength = ((source.extensions or {}).get("KHR_materials_emissive_strength") or {}).get("emissiveStrength", 1.0)
+        if not isinstance(strength, (int, float)) or isinstance(strength, bool) or not 0 <= strength < math.inf:
+            raise self.fail(f"{where}: emissiveStrength must be a number >= 0, not {strength!r}"[:200])
+        emissive = self.vector(source.emissiveFactor, [0.0, 0.0, 0.0], 3, f"{where} emissiveFactor", 0.0)
         material.emissive = (emissive * np.float32(strength)).astype(np.float32)
         emission = self._texture(source.emissiveTexture, f"{where} emissiveTexture")
         if emission is not None:
@@ -610,7 +661,7 @@ class _Importer:
             raise self.fail(f"{where}: extras need falloff 'inverse-square' | 'range' and 0 <= angle < pi")
         if not np.linalg.norm(direction) > 0:
             raise self.fail(f"{where}: its node's transform collapses the light direction")
-        return Light(kind=kind, color=self.vector(spec.get("color"), [1.0, 1.0, 1.0], 3, f"{where} color"),
+        return Light(kind=kind, color=self.vector(spec.get("color"), [1.0, 1.0, 1.0], 3, f"{where} color", 0.0),
                      intensity=intensity / LUMENS_PER_WATT,
                      position=world[:3, 3].astype(np.float32),
                      direction=(direction / np.linalg.norm(direction)).astype(np.float32),
@@ -666,7 +717,7 @@ class _Importer:
                 raise bad
             return Sky.gradient(*(radiance(value.get(k), f"gradient.{k}") for k in ("zenith", "horizon", "ground")))
         if kind == "image" and isinstance(value, str):
-            return Sky.from_image(read_environment(self.path.parent / value))
+            return Sky.from_image(read_environment(self.path.parent / value), source=str(self.path.parent / value))
         raise bad
 
 
@@ -731,21 +782,38 @@ def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = N
 
     lightmap_meta: JSON-able dict stored with the lightmap; it must hold "rgbmRange" (> 0, the
     value an RGBM texel with rgb = a = 1 decodes to).  Layout: see the module docstring.
+    A scene loaded from a glTF file is written as that file's document plus TEXCOORD_1
+    (`_SourceWriter`); a built-in scene, or one whose provenance no longer describes it, as
+    the flattened world-space copy (`_GlbWriter`).
     """
+    if lightmap_rgbm_png_bytes is not None:
+        if scene.uv1 is None:
+            raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
+        _lightmap_description(lightmap_rgbm_png_bytes, lightmap_meta or {})  # refuse bad input before any work
+    source = _SourceWriter.open(scene)
+    if isinstance(source, _SourceWriter):
+        glb = source.write(Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {})
+    else:
+        if source is not None:
+            warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
+        glb = _flattened_glb(scene, Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {})
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(glb)
+    return Path(path)
+
+
+def _flattened_glb(scene: Scene, folder: Path, png: bytes | None, meta: dict) -> bytes:
+    """The world-space soup as one .glb: one identity node and mesh per material."""
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
     writer.doc.materials = [writer.material(m) for m in scene.materials]
     nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
-    writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras=_sky_extras(scene.sky))]
+    sky = scene.sky.to_extras(folder) if scene.sky is not None else None
+    writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras={"patchlight": {"sky": sky}} if sky else {})]
     writer.doc.scene = 0
-    if lightmap_rgbm_png_bytes is not None:
-        if scene.uv1 is None:
-            raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
-        writer.lightmap(lightmap_rgbm_png_bytes, lightmap_meta or {})
-    glb = writer.finish()
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(glb)
-    return Path(path)
+    if png is not None:
+        writer.lightmap(png, meta)
+    return writer.finish()
 
 
 class _GlbWriter:
@@ -871,16 +939,541 @@ class _GlbWriter:
 
     def lightmap(self, png: bytes, meta: dict) -> None:
         """The RGBM lightmap as texture "patchlight_lightmap" and its description in the root extras."""
-        if not png.startswith(b"\x89PNG\r\n\x1a\n"):
-            raise ValueError("save_baked_glb: lightmap_rgbm_png_bytes is not a PNG")
-        rgbm_range = meta.get("rgbmRange")
-        if not isinstance(rgbm_range, (int, float, np.number)) or not 0 < float(rgbm_range) < math.inf:
-            raise ValueError(f"save_baked_glb: lightmap_meta needs a positive 'rgbmRange', got {rgbm_range!r}")
-        self.doc.samplers.append(gl.Sampler(magFilter=_LINEAR_FILTER, minFilter=_LINEAR_FILTER,
-                                            wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE))
-        texture = self.texture(png, "patchlight_lightmap", sampler=len(self.doc.samplers) - 1)
-        self.doc.extras = {"patchlight": {"lightmap": {**_jsonable(meta), "texture": texture, "texCoord": 1,
-                                                       "encoding": "RGBM", "rgbmRange": float(rgbm_range)}}}
+        description = _lightmap_description(png, meta)
+        self.doc.samplers.append(gl.Sampler(**_LIGHTMAP_SAMPLER))
+        description["texture"] = self.texture(png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1)
+        self.doc.extras = {"patchlight": {"lightmap": description}}
+
+
+LIGHTMAP_NAME = "patchlight_lightmap"
+_LIGHTMAP_SAMPLER = {"magFilter": _LINEAR_FILTER, "minFilter": _LINEAR_FILTER,
+                     "wrapS": _CLAMP_TO_EDGE, "wrapT": _CLAMP_TO_EDGE}
+
+
+def _lightmap_description(png: bytes, meta: dict) -> dict:
+    """extras.patchlight.lightmap without its "texture" index; ValueError for a bad PNG or range."""
+    if not png.startswith(b"\x89PNG\r\n\x1a\n"):
+        raise ValueError("save_baked_glb: lightmap_rgbm_png_bytes is not a PNG")
+    rgbm_range = meta.get("rgbmRange")
+    if not isinstance(rgbm_range, (int, float, np.number)) or not 0 < float(rgbm_range) < math.inf:
+        raise ValueError(f"save_baked_glb: lightmap_meta needs a positive 'rgbmRange', got {rgbm_range!r}")
+    return {**_jsonable(meta), "texture": None, "texCoord": 1, "encoding": "RGBM", "rgbmRange": float(rgbm_range)}
+
+
+class _SourceWriter:
+    """scene.glb as the input document: every node, material, texture, sampler, image (its
+    bytes as they were), camera, light, skin, animation, extra and extension kept; each mesh
+    instance's triangle primitives rewritten in the primitive's local space with the vertices
+    the lightmap UVs split (vertex v of the scene is element `provenance.vertex_source[v]` of
+    the file's accessors), TEXCOORD_1 added; a mesh drawn by several nodes gets one copy per
+    further node, "<mesh> (lightmap k)", because each instance has its own lightmap region.
+
+    A vertex block is what the loader flattened as one: the vertices of one set of attribute
+    accessors under one node.  A block whose scene vertices are exactly its accessors'
+    elements, each once (no split: the file's own TEXCOORD_1 was used), keeps its accessors
+    and indices; only an attribute whose values changed (TEXCOORD_1, COLOR_0 after
+    `vertexbake`) gets a new accessor.  Otherwise its attributes (morph targets, JOINTS and
+    WEIGHTS included) are copied through vertex_source in their stored component types and its
+    primitives get new uint16/uint32 triangle lists (mode 4, the file's winding).
+    """
+
+    def __init__(self, scene: Scene, path: Path, raw: dict, importer: "_Importer"):
+        self.scene, self.path, self.raw, self.importer = scene, path, raw, importer
+        self.provenance = scene.provenance
+        for key in ("accessors", "bufferViews", "meshes", "nodes", "images", "textures", "samplers"):
+            if not isinstance(raw.get(key, []), list):
+                raise ValueError(f"'{key}' is not a list")
+            raw.setdefault(key, [])
+        self.source_views = len(raw["bufferViews"])
+        self.new_views: list[bytes] = []  # bytes of bufferViews source_views, source_views + 1, ...
+        self.instances = {node: world for node, world in importer._instances()}  # traversal order
+        self.set_id: dict[tuple, int] = {}      # accessor set (sorted attribute pairs) -> number
+        self.sets: dict[tuple[int, int], int] = {}  # (mesh, primitive) -> accessor set number
+        self.owner: dict[tuple[bytes, int], int] = {}  # (world matrix, set) -> node of the loader's block
+        self._blocks: list[_VertexBlock] | None = None
+
+    # ------------------------------------------------------------------ opening, and checking the provenance
+
+    @classmethod
+    def open(cls, scene: Scene) -> "_SourceWriter | str | None":
+        """A writer for a scene loaded from glTF; None for a scene without provenance; a reason
+        (str) when the provenance does not describe the scene or the file has changed."""
+        provenance = scene.provenance
+        if provenance is None:
+            return None
+        path = Path(provenance.path)
+        if not provenance.fits(len(scene.positions), scene.n_triangles):
+            return "its provenance no longer matches its vertices and triangles"
+        if _file_stamp(path) != provenance.stamp:
+            return f"{path} has changed (or gone) since it was loaded"
+        data = read_bytes(path)
+        text, blob = _split_glb(data, path) if data[:4] == _GLB_MAGIC else (_json_text(data, path), None)
+        try:
+            doc = gl.GLTF2.from_json(text, infer_missing=True)
+            writer = cls(scene, path, json.loads(text), _Importer(path, doc, blob))
+            reason = writer.mismatch()
+        except (PatchlightError, TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
+            return f"{path} cannot be mapped back ({exc})"
+        return reason or writer
+
+    def mismatch(self) -> str | None:
+        """Why the provenance does not describe the scene (None when it does): nodes, meshes,
+        primitives, accessor sets, materials and world-space positions must all agree."""
+        p, doc, scene = self.provenance, self.importer.doc, self.scene
+        nodes, meshes = doc.nodes or [], doc.meshes or []
+        for node in np.unique(np.concatenate([p.triangle_node, p.vertex_node])):
+            if node not in self.instances or nodes[node].mesh is None:
+                return f"node {node} is not a mesh node of the scene"
+        self.node_mesh = np.array([-1 if n.mesh is None else n.mesh for n in nodes], np.int64)
+        if not np.array_equal(self.node_mesh[p.triangle_node], p.triangle_mesh):
+            return "a triangle's mesh is not its node's"
+        widest = max([len(mesh.primitives or []) for mesh in meshes], default=0)
+        set_table = np.full((len(meshes) + 1, widest + 1), -1, np.int64)  # (mesh, primitive) -> set; -1: none
+        material_table = np.full_like(set_table, -1)
+        default_material = len(doc.materials or [])
+        for m, mesh in enumerate(meshes):
+            for k, primitive in enumerate(mesh.primitives or []):
+                self.sets[m, k] = self.set_id.setdefault(tuple(sorted(_attribute_map(primitive).items())),
+                                                         len(self.set_id))
+                set_table[m, k] = self.sets[m, k]
+                material_table[m, k] = default_material if primitive.material is None else primitive.material
+        for node, world in self.instances.items():  # the loader's blocks: one per world matrix and set
+            mesh = nodes[node].mesh
+            for k, primitive in enumerate(meshes[mesh].primitives or [] if mesh is not None else []):
+                if (_TRIANGLES if primitive.mode is None else primitive.mode) not in _POINTS_AND_LINES:
+                    self.owner.setdefault((world.tobytes(), self.sets[mesh, k]), node)
+        vertex_mesh = self.node_mesh[p.vertex_node]
+        if not (np.all((0 <= p.triangle_primitive) & (p.triangle_primitive <= widest))
+                and np.all((0 <= p.vertex_primitive) & (p.vertex_primitive <= widest))):
+            return "a primitive index is past its mesh's primitives"
+        self.tri_set = set_table[p.triangle_mesh, p.triangle_primitive]
+        self.vertex_set = set_table[vertex_mesh, p.vertex_primitive]
+        if self.tri_set.min() < 0 or self.vertex_set.min() < 0:
+            return "a primitive index is past its mesh's primitives"
+        pairs, inverse = np.unique(np.stack([p.triangle_node, self.tri_set], axis=1), axis=0, return_inverse=True)
+        tri_owner = np.array([self.owner.get((self.instances[n].tobytes(), a), -1) for n, a in pairs.tolist()],
+                             np.int64)[inverse.ravel()]
+        corners = scene.indices
+        if not (np.all(p.vertex_node[corners] == tri_owner[:, None])
+                and np.all(self.vertex_set[corners] == self.tri_set[:, None])):
+            return "a triangle's corners are not vertices of its primitive's accessors"
+        if not np.array_equal(material_table[p.triangle_mesh, p.triangle_primitive], scene.material_ids):
+            return "a triangle's material is not its primitive's"
+        for block in self.blocks():
+            local = self.local_positions(block)
+            if local is None:
+                return f"vertex indices past the accessors of node {block.node}"
+            world = self.instances[block.node]
+            expected = local @ world[:3, :3].T + world[:3, 3]
+            size = float(np.abs(expected).max(initial=0.0)) + 1.0
+            if not np.allclose(scene.positions[block.vertices], expected, rtol=0.0, atol=1e-5 * size):
+                return f"vertex positions of node {block.node} are not its mesh's under its transform"
+        return None
+
+    def blocks(self) -> list["_VertexBlock"]:
+        """The scene's vertices grouped by (node, accessor set), each in scene order."""
+        if self._blocks is None:
+            p = self.provenance
+            key = p.vertex_node.astype(np.int64) * (len(self.set_id) + 1) + self.vertex_set
+            order = np.argsort(key, kind="stable")
+            starts = np.flatnonzero(np.diff(key[order], prepend=-1))
+            self._blocks = []
+            for vertices in np.split(order, starts[1:]):
+                first = int(vertices[0])
+                node, primitive = int(p.vertex_node[first]), int(p.vertex_primitive[first])
+                attributes = _attribute_map(self.importer.doc.meshes[self.node_mesh[node]].primitives[primitive])
+                self._blocks.append(_VertexBlock(node, int(self.vertex_set[first]), attributes, vertices,
+                                                 p.vertex_source[vertices].astype(np.int64)))
+        return self._blocks
+
+    def local_positions(self, block: "_VertexBlock") -> np.ndarray | None:
+        """(n, 3) f64 local POSITION of the block's vertices, or None if an index is out of range."""
+        positions = self.importer.floats(block.attributes["POSITION"], (3,), f"node {block.node} POSITION")
+        if block.sources.size and (block.sources.min() < 0 or block.sources.max() >= len(positions)):
+            return None
+        block.count = len(positions)
+        return positions[block.sources].astype(np.float64)
+
+    # ------------------------------------------------------------------ the document
+
+    def write(self, folder: Path, png: bytes | None, meta: dict) -> bytes:
+        """The .glb bytes; folder: where it will live (image sky paths are relative to it)."""
+        primitives = self.rewritten_primitives()
+        self.assign_meshes(primitives)
+        self.drop_unused_draco()
+        if png is not None:
+            self.lightmap(png, meta)
+        self.sky(folder)
+        self.embed_external_images()
+        self.compact()
+        return self.container()
+
+    def rewritten_primitives(self) -> dict[int, list[dict]]:
+        """node -> its mesh's primitives (JSON) as this instance writes them."""
+        p, scene = self.provenance, self.scene
+        by_block = {(b.node, b.set): b for b in self.blocks()}
+        tri_key = p.triangle_node.astype(np.int64) * (int(p.triangle_primitive.max(initial=0)) + 1) + p.triangle_primitive
+        order = np.argsort(tri_key, kind="stable")
+        starts = np.flatnonzero(np.diff(tri_key[order], prepend=-1))
+        triangles_of = {(int(p.triangle_node[t[0]]), int(p.triangle_primitive[t[0]])): t
+                        for t in np.split(order, starts[1:]) if len(t)}
+        touched = set(p.triangle_mesh.tolist()) | set(self.node_mesh[p.vertex_node].tolist())
+        out = {}
+        for node in (n for n in self.instances if self.node_mesh[n] in touched):
+            mesh = int(self.node_mesh[node])
+            flip = np.linalg.det(self.instances[node][:3, :3]) < 0
+            written = []
+            world = self.instances[node].tobytes()
+            for k, primitive in enumerate(self.raw["meshes"][mesh].get("primitives") or []):
+                block = by_block.get((self.owner.get((world, self.sets[mesh, k])), self.sets[mesh, k]))
+                triangles = triangles_of.get((node, k))
+                if block is None or primitive.get("mode", _TRIANGLES) in _POINTS_AND_LINES:
+                    # points or lines: not lightmapped, kept as they were
+                    written.append(primitive)
+                    continue
+                prepared = self.block_attributes(block)
+                if block.same_layout:
+                    written.append({**primitive, "attributes": {**primitive["attributes"], **prepared}})
+                elif triangles is None:  # every triangle degenerate: nothing to light, kept as it was
+                    written.append(primitive)
+                else:
+                    corners = scene.indices[triangles]
+                    corners = corners[:, [0, 2, 1]] if flip else corners
+                    rows = np.searchsorted(block.vertices, corners.ravel())
+                    written.append(self.split_primitive(primitive, prepared, block, rows, mesh, k))
+            out[node] = written
+        return out
+
+    def block_attributes(self, block: "_VertexBlock") -> dict[str, int]:
+        """Accessors for the block's attributes that change (no split) or all of them (split); cached."""
+        if block.prepared is not None:
+            return block.prepared
+        scene, importer = self.scene, self.importer
+        if block.count is None:
+            self.local_positions(block)
+        block.same_layout = (len(block.sources) == block.count
+                             and np.array_equal(np.sort(block.sources), np.arange(block.count)))
+        if block.same_layout:  # values in the accessors' element order
+            rows = np.empty(block.count, np.int64)
+            rows[block.sources] = block.vertices
+        else:
+            rows = block.vertices
+        prepared = {}
+        if scene.uv1 is not None:
+            uv1 = np.ascontiguousarray(scene.uv1[rows], np.float32)
+            own = block.attributes.get("TEXCOORD_1")
+            if not (block.same_layout and own is not None
+                    and importer.floats(own, (2,), "TEXCOORD_1").tobytes() == uv1.tobytes()):
+                prepared["TEXCOORD_1"] = self.add_accessor(uv1, _FLOAT, "VEC2", vertex=True)
+        if scene.colors is not None:
+            colors = np.ascontiguousarray(scene.colors[rows], np.float32)
+            own = block.attributes.get("COLOR_0")
+            if own is None:
+                loaded = np.ones((block.count, 4), np.float32)
+            else:
+                loaded = importer.floats(own, (3, 4), "COLOR_0")
+                if loaded.shape[1] == 3:
+                    loaded = np.concatenate([loaded, np.ones((len(loaded), 1), np.float32)], axis=1)
+            expected = loaded if block.same_layout else loaded[block.sources]
+            if colors.tobytes() != np.ascontiguousarray(expected, np.float32).tobytes():  # vertexbake's light
+                prepared["COLOR_0"] = self.add_accessor(colors, _FLOAT, "VEC4", vertex=True)
+        if not block.same_layout:
+            for name, index in block.attributes.items():
+                if name not in prepared:
+                    prepared[name] = self.copy_accessor(index, block.sources, bounds=name == "POSITION")
+        block.prepared = prepared
+        return prepared
+
+    def split_primitive(self, primitive: dict, prepared: dict, block: "_VertexBlock", rows: np.ndarray,
+                        mesh: int, k: int) -> dict:
+        """A primitive over the block's split vertices: new attributes, morph targets and triangle list."""
+        out = {key: value for key, value in primitive.items() if key not in ("attributes", "indices", "mode", "targets")}
+        out["attributes"] = {name: prepared[name] for name in primitive["attributes"]}
+        out["attributes"].update({name: prepared[name] for name in ("TEXCOORD_1", "COLOR_0") if name in prepared})
+        if primitive.get("targets"):
+            if block.targets is None or block.targets[0] != (mesh, k):
+                block.targets = ((mesh, k), [{name: self.copy_accessor(index, block.sources, bounds=name == "POSITION")
+                                              for name, index in target.items()} for target in primitive["targets"]])
+            out["targets"] = block.targets[1]
+        component = 5123 if len(block.vertices) < 65535 else _UINT
+        out["indices"] = self.add_accessor(rows.astype(np.uint16 if component == 5123 else np.uint32).reshape(-1, 1),
+                                           component, "SCALAR", vertex=False)
+        extensions = {key: value for key, value in (primitive.get("extensions") or {}).items()
+                      if key != "KHR_draco_mesh_compression"}  # the compressed data is the old vertices
+        if extensions:
+            out["extensions"] = extensions
+        else:
+            out.pop("extensions", None)
+        return out
+
+    def assign_meshes(self, primitives: dict[int, list[dict]]) -> None:
+        """Each node's primitives into its mesh: the first instance of a mesh rewrites it, every
+        further instance whose primitives differ gets a copy named "<mesh> (lightmap k)"."""
+        meshes, nodes = self.raw["meshes"], self.raw["nodes"]
+        instances: dict[int, list[int]] = {}
+        for node in self.instances:  # traversal order
+            if node in primitives:
+                instances.setdefault(int(self.node_mesh[node]), []).append(node)
+        for mesh, users in instances.items():
+            original = meshes[mesh]
+            meshes[mesh] = {**original, "primitives": primitives[users[0]]}
+            for number, node in enumerate(users[1:], start=2):
+                if primitives[node] == primitives[users[0]]:
+                    continue  # nothing of this instance changed: it keeps sharing the mesh
+                name = f"{original.get('name') or f'mesh {mesh}'} (lightmap {number})"
+                meshes.append({**json.loads(json.dumps(original)), "name": name, "primitives": primitives[node]})
+                nodes[node]["mesh"] = len(meshes) - 1
+
+    def drop_unused_draco(self) -> None:
+        name = "KHR_draco_mesh_compression"
+        if any(name in (p.get("extensions") or {}) for m in self.raw["meshes"] for p in m.get("primitives") or []):
+            return
+        for key in ("extensionsUsed", "extensionsRequired"):
+            if name in (self.raw.get(key) or []):
+                self.raw[key] = [e for e in self.raw[key] if e != name]
+                if not self.raw[key]:
+                    del self.raw[key]
+
+    # ------------------------------------------------------------------ lightmap, sky, images
+
+    def lightmap(self, png: bytes, meta: dict) -> None:
+        """The RGBM lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the
+        new image, else a new texture "patchlight_lightmap"; root extras.patchlight.lightmap."""
+        raw = self.raw
+        description = _lightmap_description(png, meta)
+        extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
+        patchlight = extras.get("patchlight") if isinstance(extras.get("patchlight"), dict) else {}
+        old = (patchlight.get("lightmap") or {}).get("texture") if isinstance(patchlight.get("lightmap"), dict) else None
+        textures, images = raw["textures"], raw["images"]
+        view = self.add_view(png)
+        if (isinstance(old, int) and 0 <= old < len(textures) and textures[old].get("name") == LIGHTMAP_NAME
+                and isinstance(textures[old].get("source"), int) and 0 <= textures[old]["source"] < len(images)):
+            texture = old
+            images[textures[old]["source"]] = {"name": LIGHTMAP_NAME, "bufferView": view, "mimeType": "image/png"}
+        else:
+            raw["samplers"].append(dict(_LIGHTMAP_SAMPLER))
+            images.append({"name": LIGHTMAP_NAME, "bufferView": view, "mimeType": "image/png"})
+            textures.append({"name": LIGHTMAP_NAME, "sampler": len(raw["samplers"]) - 1, "source": len(images) - 1})
+            texture = len(textures) - 1
+        description["texture"] = texture
+        raw["extras"] = {**extras, "patchlight": {**patchlight, "lightmap": description}}
+
+    def sky(self, folder: Path) -> None:
+        """The bake's sky in extras.patchlight.sky of the scene the loader reads (that scene's
+        extras, else asset.extras); an image sky of unknown file clears the old entry."""
+        raw, sky = self.raw, self.scene.sky
+        spec = None if sky is None else sky.to_extras(folder)
+        scenes = raw.get("scenes") if isinstance(raw.get("scenes"), list) else []
+        chosen = raw.get("scene", 0) if scenes else None
+        holders = [scenes[chosen]] if scenes else []
+        holders.append(raw.setdefault("asset", {}))
+        for number, holder in enumerate(holders):
+            extras = holder.get("extras", {})
+            if not isinstance(extras, dict):
+                continue
+            patchlight = extras.get("patchlight", {})
+            if not isinstance(patchlight, dict):
+                continue
+            if number == 0 and spec is not None:
+                holder["extras"] = {**extras, "patchlight": {**patchlight, "sky": spec}}
+            elif "sky" in patchlight:
+                rest = {k: v for k, v in patchlight.items() if k != "sky"}
+                holder["extras"] = {**extras, "patchlight": rest} if rest else {k: v for k, v in extras.items()
+                                                                              if k != "patchlight"}
+                if not holder["extras"]:
+                    del holder["extras"]
+
+    def embed_external_images(self) -> None:
+        """Images in files beside a .gltf move into the .glb, their bytes unchanged (a data: URI
+        stays as it is; an image that cannot be read keeps its uri)."""
+        for number, image in enumerate(self.raw["images"]):
+            uri = image.get("uri")
+            if not isinstance(uri, str) or uri.startswith("data:"):
+                continue
+            try:
+                data = self.importer._resource(uri, f"image {number}")
+            except PatchlightError:
+                continue
+            mime = image.get("mimeType") or _image_mime(data)
+            if mime is None:
+                continue
+            del image["uri"]
+            image.update(bufferView=self.add_view(data), mimeType=mime)
+
+    # ------------------------------------------------------------------ accessors, views and the container
+
+    def add_view(self, data: bytes, target: int | None = None, stride: int | None = None) -> int:
+        view = {"buffer": 0, "byteLength": len(data)}
+        if stride is not None:
+            view["byteStride"] = stride
+        if target is not None:
+            view["target"] = target
+        self.raw["bufferViews"].append(view)
+        self.new_views.append(bytes(data))
+        return len(self.raw["bufferViews"]) - 1
+
+    def add_accessor(self, values: np.ndarray, component: int, kind: str, vertex: bool, normalized: bool = False,
+                     bounds: bool = False) -> int:
+        """values (n, width) in the component type; vertex attributes padded to 4-byte elements."""
+        values = np.ascontiguousarray(values)
+        element = values.shape[1] * values.itemsize
+        stride = None
+        if vertex and element % 4:
+            stride = element + (-element % 4)
+            padded = np.zeros((len(values), stride), np.uint8)
+            padded[:, :element] = values.view(np.uint8).reshape(len(values), element)
+            data = padded.tobytes()
+        else:
+            data = values.tobytes()
+        accessor = {"bufferView": self.add_view(data, _ARRAY_BUFFER if vertex else _ELEMENT_ARRAY_BUFFER, stride),
+                    "componentType": component, "count": len(values), "type": kind}
+        if normalized:
+            accessor["normalized"] = True
+        if bounds and len(values):
+            cast = float if component == _FLOAT else int
+            accessor["min"] = [cast(v) for v in values.min(axis=0)]
+            accessor["max"] = [cast(v) for v in values.max(axis=0)]
+        self.raw["accessors"].append(accessor)
+        return len(self.raw["accessors"]) - 1
+
+    def copy_accessor(self, index: int, sources: np.ndarray, bounds: bool) -> int:
+        """A new vertex accessor holding elements `sources` of accessor `index`, same component
+        type, type and normalization (sparse substitutions applied)."""
+        original = self.raw["accessors"][index]
+        if original.get("type") not in _TYPE_WIDTHS:
+            raise PatchlightError(f"{self.path}: accessor {index} of type {original.get('type')!r} "
+                                  f"cannot be a vertex attribute")
+        values = self.importer.accessor(index)[sources]
+        return self.add_accessor(values, original["componentType"], original["type"], vertex=True,
+                                 normalized=bool(original.get("normalized")),
+                                 bounds=bounds or "min" in original or "max" in original)
+
+    def compact(self) -> None:
+        """Drop accessors and bufferViews nothing refers to any more (the replaced vertices), and
+        renumber the references.  Skipped when the file uses an extension whose references to
+        accessors or views this writer does not know: then everything stays, unused or not."""
+        raw = self.raw
+        used_extensions = set(raw.get("extensionsUsed") or [])
+        if any(not (e in _KNOWN_EXTENSIONS or e.startswith("KHR_materials_")) for e in used_extensions):
+            self.view_order = list(range(len(raw["bufferViews"])))
+            return
+        references = _distinct(self.accessor_references())
+        referenced = sorted({holder[key] for holder, key in references})
+        accessor_map = {old: new for new, old in enumerate(referenced)}
+        for holder, key in references:
+            holder[key] = accessor_map[holder[key]]
+        raw["accessors"] = [raw["accessors"][old] for old in referenced]
+        references = _distinct(self.view_references())
+        views = sorted({holder[key] for holder, key in references})
+        view_map = {old: new for new, old in enumerate(views)}
+        for holder, key in references:
+            holder[key] = view_map[holder[key]]
+        self.view_order = views
+        raw["bufferViews"] = [raw["bufferViews"][old] for old in views]
+
+    def accessor_references(self):
+        """(holder dict, key) of every accessor reference this writer knows."""
+        raw = self.raw
+        for mesh in raw["meshes"]:
+            for primitive in mesh.get("primitives") or []:
+                yield from ((primitive["attributes"], name) for name in primitive.get("attributes") or {})
+                if primitive.get("indices") is not None:
+                    yield primitive, "indices"
+                for target in primitive.get("targets") or []:
+                    yield from ((target, name) for name in target)
+        for skin in raw.get("skins") or []:
+            if skin.get("inverseBindMatrices") is not None:
+                yield skin, "inverseBindMatrices"
+        for animation in raw.get("animations") or []:
+            for sampler in animation.get("samplers") or []:
+                yield from ((sampler, key) for key in ("input", "output") if key in sampler)
+        for node in raw["nodes"]:
+            instancing = (node.get("extensions") or {}).get("EXT_mesh_gpu_instancing") or {}
+            attributes = instancing.get("attributes") or {}
+            yield from ((attributes, name) for name in attributes)
+
+    def view_references(self):
+        raw = self.raw
+        for accessor in raw["accessors"]:
+            if accessor.get("bufferView") is not None:
+                yield accessor, "bufferView"
+            sparse = accessor.get("sparse") or {}
+            for part in ("indices", "values"):
+                if (sparse.get(part) or {}).get("bufferView") is not None:
+                    yield sparse[part], "bufferView"
+        for image in raw["images"]:
+            if image.get("bufferView") is not None:
+                yield image, "bufferView"
+        for mesh in raw["meshes"]:
+            for primitive in mesh.get("primitives") or []:
+                draco = (primitive.get("extensions") or {}).get("KHR_draco_mesh_compression") or {}
+                if draco.get("bufferView") is not None:
+                    yield draco, "bufferView"
+
+    def container(self) -> bytes:
+        """The GLB: the JSON chunk and one BIN chunk holding every bufferView, 8-byte aligned."""
+        blob = bytearray()
+        for view, old in zip(self.raw["bufferViews"], self.view_order):
+            data = self.new_views[old - self.source_views] if old >= self.source_views else \
+                bytes(self.importer.view_bytes(old))
+            blob += b"\0" * (-len(blob) % 8)
+            view.update(buffer=0, byteOffset=len(blob), byteLength=len(data))
+            blob += data
+        blob += b"\0" * (-len(blob) % 4)
+        self.raw["buffers"] = [{"byteLength": len(blob)}] if blob else []
+        if not self.raw["buffers"]:
+            del self.raw["buffers"]
+        text = json.dumps(self.raw, separators=(",", ":")).encode("utf-8")
+        text += b" " * (-len(text) % 4)
+        chunks = struct.pack("<II", len(text), _CHUNK_JSON) + text
+        if blob:
+            chunks += struct.pack("<II", len(blob), _CHUNK_BIN) + bytes(blob)
+        return _GLB_MAGIC + struct.pack("<II", 2, 12 + len(chunks)) + chunks
+
+
+@dataclass
+class _VertexBlock:
+    """The scene vertices of one accessor set under one node: vertices (n,) scene indices,
+    ascending; sources (n,) their elements in the accessors; count: the accessors' length."""
+
+    node: int
+    set: int
+    attributes: dict[str, int]
+    vertices: np.ndarray
+    sources: np.ndarray
+    count: int | None = None
+    same_layout: bool = False
+    prepared: dict | None = None
+    targets: tuple | None = None
+
+
+# Extensions whose references to accessors and bufferViews the writer knows (or that have none).
+_KNOWN_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_mesh_quantization", "KHR_texture_basisu",
+                     "EXT_texture_webp", "EXT_texture_avif", "KHR_xmp_json_ld", "EXT_mesh_gpu_instancing",
+                     "KHR_draco_mesh_compression", "KHR_animation_pointer"}
+
+
+def _distinct(references) -> list[tuple[dict, str]]:
+    """(holder, key) pairs, each once: primitives and morph targets may be shared by meshes."""
+    seen, out = set(), []
+    for holder, key in references:
+        if (id(holder), key) not in seen:
+            seen.add((id(holder), key))
+            out.append((holder, key))
+    return out
+
+
+def _image_mime(data: bytes) -> str | None:
+    """The MIME type of PNG, JPEG, WebP or KTX2 bytes (None for anything else)."""
+    if data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return "image/png"
+    if data.startswith(b"\xff\xd8\xff"):
+        return "image/jpeg"
+    if data[:4] == b"RIFF" and data[8:12] == b"WEBP":
+        return "image/webp"
+    if data.startswith(b"\xabKTX 20\xbb\r\n\x1a\n"):
+        return "image/ktx2"
+    return None
 
 
 def _floats(values) -> list[float]:
@@ -908,15 +1501,6 @@ def _rotation_onto(direction) -> list[float]:
         return [0.0, 1.0, 0.0, 0.0]
     q = np.array([*np.cross(forward, d), 1.0 + cosine])
     return _floats(q / np.linalg.norm(q))
-
-
-def _sky_extras(sky: Sky | None) -> dict:
-    if sky is None or sky.kind == "image":
-        return {}
-    if sky.kind == "uniform":
-        return {"patchlight": {"sky": {"uniform": _floats(sky.colors[0])}}}
-    zenith, horizon, ground = (_floats(c) for c in sky.colors)
-    return {"patchlight": {"sky": {"gradient": {"zenith": zenith, "horizon": horizon, "ground": ground}}}}
 
 
 def _jsonable(value):
