@@ -235,7 +235,9 @@ def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dic
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
     names = sorted(["lightmap.exr", "scene.glb", "bake.json", *pictures])
+    sky = result.scene.sky
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
+               "sky": None if sky is None else sky.to_json(),
                **result.stats, "files": names}
     with staged_output(out_dir, last="bake.json", stale=("pass_*.png",)) as staging:
         write_exr(staging / "lightmap.exr", result.lightmap)

@@ -73,15 +73,17 @@ def _at_hits(attribute: np.ndarray, indices: np.ndarray, tri, u, v) -> np.ndarra
 
 def is_bake_dir(path: str | Path) -> bool:
     """A complete bake: scene.glb and lightmap.exr, and bake.json, which is written last."""
+    from .scene import is_builtin
+
     p = Path(path)
-    return p.is_dir() and all((p / name).exists() for name in ("scene.glb", "lightmap.exr", "bake.json"))
+    return not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in ("scene.glb", "lightmap.exr", "bake.json"))
 
 
 def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None, quiet: bool = True) -> SolvedScene:
     """A bake directory as written by `patchlight bake`, or a scene (file or built-in name)
     baked now with `settings`. sky, when given, replaces the scene's."""
     from .imaging.io import read_exr
-    from .scene import load_scene
+    from .scene import is_builtin, load_scene
 
     if is_bake_dir(spec):
         scene = load_scene(Path(spec) / "scene.glb")
@@ -91,7 +93,7 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
         if scene.uv1 is None:
             raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
         return SolvedScene(scene, lightmap, str(spec))
-    if Path(spec).is_dir():
+    if not is_builtin(spec) and Path(spec).is_dir():
         raise PatchlightError(f"{spec}: not a complete bake (needs scene.glb, lightmap.exr and bake.json)")
     from .bake import bake
 

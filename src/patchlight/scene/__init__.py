@@ -8,13 +8,19 @@ from .builtin import BUILTIN_SCENES, SceneBuilder, builtin_scene
 from .model import Light, Material, Scene
 from .sky import Sky
 
-__all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "SceneBuilder", "Sky", "load_scene"]
+__all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "SceneBuilder", "Sky", "is_builtin", "load_scene"]
+
+
+def is_builtin(spec: str | Path) -> bool:
+    """The bare name of a built-in scene ("room", "cornell", "track"). It always means the
+    built-in, even beside a file or folder of that name: write "./room" for those."""
+    return isinstance(spec, str) and spec in BUILTIN_SCENES
 
 
 def load_scene(spec: str | Path) -> Scene:
-    """A built-in scene by name ("room", "cornell") or a .glb/.gltf file by path."""
-    if str(spec) in BUILTIN_SCENES and not Path(spec).exists():
-        return builtin_scene(str(spec))
+    """A built-in scene by name (`is_builtin`) or a .glb/.gltf file by path."""
+    if is_builtin(spec):
+        return builtin_scene(spec)
     path = Path(spec)
     if path.is_dir() and (path / "scene.glb").exists():
         path = path / "scene.glb"
