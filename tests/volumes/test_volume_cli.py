@@ -62,6 +62,11 @@ def test_volume_compact_and_spacing(cornell_bake, tmp_path, capsys):
     (["--spacing", "-1"], r"--spacing -1.0: must be a positive number"),
     (["--rays", "0"], r"--rays 0: must lie in 1..16384"),
     (["--bounds", "0,0.2,0,0.5,0.2,0.5", "--dims", "3,3,3"], r"3 probes along Y, where the box has no extent"),
+    (["--seed", "-1"], r"--seed -1: must lie in 0..4294967295"),
+    (["--seed", "4294967296"], r"--seed 4294967296: must lie in 0..4294967295"),
+    (["--spacing", "1e-320"], r"--spacing 1e-320: more than 1e308 probes along X alone \(0.556 m\) is more than the limit"),
+    (["--spacing", "1e-8"], r"--spacing 1e-08: 5.59e\+07 probes along Z alone \(0.5592 m\) is more than the limit"),
+    (["--bounds", "-1e300,0,0,1e300,1,1", "--dims", "2,2,2"], r"too large for float32 positions"),
 ])
 def test_volume_bad_input_is_one_line_and_writes_nothing(cornell_bake, tmp_path, capsys, args, message):
     status, _, err = run(capsys, "volume", cornell_bake, "-o", tmp_path / "v", *args)
@@ -181,3 +186,13 @@ def test_vertices_under_a_wall_take_the_light_of_the_visible_floor():
     light = vertex_incident(solved)
     assert light[under].min() > 0.3
     assert light[floor].max() < 1.1  # a linear fit of a concave falloff overshoots a little, no more
+
+
+def test_volume_settings_refuse_a_seed_numpy_would_choke_on():
+    from patchlight.errors import PatchlightError
+    from patchlight.volumes import VolumeSettings
+
+    for seed in (-1, 2**32, 1.5):
+        with pytest.raises(PatchlightError, match="must be a whole number in 0..4294967295"):
+            VolumeSettings(seed=seed)
+    assert VolumeSettings(seed=2**32 - 1).seed == 2**32 - 1

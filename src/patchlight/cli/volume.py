@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
-from ..volumes.probes import VolumeSettings
+from ..volumes.probes import MAX_SEED, VolumeSettings
 from .bake import add_scene_options, sky_from_args
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
@@ -41,7 +41,8 @@ def register(sub) -> None:
     p.add_argument("--rays", type=int, default=VolumeSettings().rays, metavar="N",
                    help="gather rays per axis, rounded down to a square (default %(default)s)")
     p.add_argument("--compact", action="store_true", help="store one colour and six intensities per probe")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=VolumeSettings().seed,
+                   help=f"seed of the rays' jitter and rotation, 0..{MAX_SEED} (default %(default)s)")
     add_scene_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print volume.json on stdout")
@@ -82,6 +83,8 @@ def run(args) -> int:
 
     if not 1 <= args.rays <= 16384:
         raise PatchlightError(f"--rays {args.rays}: must lie in 1..16384")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise PatchlightError(f"--seed {args.seed}: must lie in 0..{MAX_SEED}")
     check_output_dir(args.output)
     quiet = args.quiet or args.json
     if not Path(args.scene).is_dir():  # a scene to bake first: refuse a bad grid before the bake

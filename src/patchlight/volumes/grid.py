@@ -60,7 +60,14 @@ def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
     if spacing is not None:
         if not (spacing > 0 and math.isfinite(spacing)):
             raise PatchlightError(f"--spacing {spacing}: must be a positive number of metres")
-        counts = [math.ceil(e / spacing - 1e-9) + 1 for e in extent]
+        with np.errstate(over="ignore"):
+            along = extent / spacing  # inf for a tiny spacing: no whole number to round to
+        if not np.all(along < MAX_PROBES):
+            axis = int(np.argmax(along))
+            many = f"{float(along[axis]):.3g}" if math.isfinite(along[axis]) else "more than 1e308"
+            raise PatchlightError(f"--spacing {spacing}: {many} probes along {'XYZ'[axis]} alone ({float(extent[axis]):g} m) "
+                                  f"is more than the limit of {MAX_PROBES:,}; use a larger --spacing")
+        counts = [math.ceil(a - 1e-9) + 1 for a in along]
         step = np.full(3, float(spacing))
     else:
         counts = [int(n) for n in dims]
@@ -90,6 +97,9 @@ def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = values[:3], values[3:]
     if np.any(hi < lo):
         raise PatchlightError(f"--bounds {text}: each of X1, Y1, Z1 must be at least X0, Y0, Z0")
+    with np.errstate(over="ignore"):  # probes are traced in float32: corners and size must fit
+        if not (np.all(np.isfinite(values.astype(np.float32))) and np.all(np.isfinite((hi - lo).astype(np.float32)))):
+            raise PatchlightError(f"--bounds {text}: too large for float32 positions (beyond 3.4e38 m)")
     return lo, hi
 
 

@@ -18,6 +18,7 @@ into the wall).
 | sun_angle   | degrees       | None           | override the sun's angular diameter (0 = hard shadows)     |
 | falloff     | str           | inverse-square | point/spot falloff when a light names none: or "range"     |
 | seed        | int           | 1              | the jitter of the ray pattern and its rotation per axis    |
+|             |               |                | (0..MAX_SEED = 2^32 - 1)                                   |
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..errors import PatchlightError
 from ..progress import Progress
 from ..radiosity import _kernels
 from ..radiosity.direct import direct_light
@@ -44,6 +46,7 @@ T_NEAR = 2e-4               # rays start this far along (x the scene's size): a 
 OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
 RAYS_PER_CHUNK = 1 << 20    # rays traced per batch: bounds memory at ~100 MB
 GOLDEN = 0.6180339887498949
+MAX_SEED = 2**32 - 1        # numpy's seed range; (row + seed) x GOLDEN keeps its precision below it
 
 
 @dataclass
@@ -53,6 +56,10 @@ class VolumeSettings:
     sun_angle: float | None = None
     falloff: str = "inverse-square"
     seed: int = 1
+
+    def __post_init__(self):
+        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed <= MAX_SEED):
+            raise PatchlightError(f"volume seed {self.seed!r}: must be a whole number in 0..{MAX_SEED}")
 
     def to_json(self) -> dict:
         return asdict(self)
