@@ -85,25 +85,51 @@ def _bad_inputs(tmp_path):
     dark = lit_quad()
     dark.lights = []
     points = dict(doc, meshes=[{"primitives": [dict(p, mode=0) for p in m["primitives"]]} for m in doc["meshes"]])
+    lines = dict(doc, meshes=[{"primitives": [dict(p, mode=1) for p in m["primitives"]]} for m in doc["meshes"]])
+    lost_buffer = dict(doc, buffers=[{"byteLength": doc["buffers"][0]["byteLength"], "uri": "gone.bin"}])
+    light_defs = doc["extensions"]["KHR_lights_punctual"]["lights"]
+    negative = _with_lights(doc, [dict(light, color=[1.0, -0.5, 1.0]) for light in light_defs])
+    zero = _with_lights(doc, [dict(light, intensity=0.0) for light in light_defs])
+    glowing = dict(doc, materials=[dict(m, pbrMetallicRoughness={"baseColorFactor": [5.0, 1.0, 1.0, 1.0]})
+                                   for m in doc["materials"]])
+    (tmp_path / "folder.glb").mkdir()
     return {
         "missing": (tmp_path / "nope.glb", "not found"),
+        "a folder": (tmp_path / "folder.glb", "folder.glb"),
+        "lost buffer": (_write(tmp_path / "lost.gltf", json.dumps(lost_buffer).encode()), "gone.bin"),
+        "only lines": (_write(tmp_path / "lines.gltf", _embed(lines, good, json_len)), "no triangle"),
+        "infinite": (_write(tmp_path / "inf.glb", _with_position(good, doc, json_len, float("inf"))), "infinite"),
+        "all degenerate": (_write(tmp_path / "flat.glb", _with_position(good, doc, json_len, None)), "degenerate"),
+        "negative light": (_write(tmp_path / "neg.gltf", _embed(negative, good, json_len)), "color"),
+        "dark light": (_write(tmp_path / "zero.gltf", _embed(zero, good, json_len)), "nothing lights"),
+        "base colour above 1": (_write(tmp_path / "glow.gltf", _embed(glowing, good, json_len)), "baseColorFactor"),
         "not gltf": (_write(tmp_path / "noise.glb", bytes(range(256)) * 4), "glTF"),
         "truncated": (_write(tmp_path / "cut.glb", good[: len(good) // 2]), "truncated"),
         "broken accessor": (_write(tmp_path / "broken.gltf", json.dumps(broken).encode()), "bufferView"),
-        "nan": (_write(tmp_path / "nan.glb", _with_nan_position(good, doc, json_len)), "NaN"),
+        "nan": (_write(tmp_path / "nan.glb", _with_position(good, doc, json_len, float("nan"))), "NaN"),
         "no light": (_save(dark, tmp_path / "dark.glb"), "nothing lights"),
         "only points": (_write(tmp_path / "points.gltf", _embed(points, good, json_len)), "no triangle"),
     }
 
 
-def _with_nan_position(glb, doc, json_len):
-    """The .glb with its first vertex's x replaced by NaN in the BIN chunk."""
+def _with_position(glb, doc, json_len, x):
+    """The .glb with its first vertex's x set to x in the BIN chunk; x None: every vertex of
+    the first mesh moved onto the first (all its triangles degenerate)."""
     accessor = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
     view = doc["bufferViews"][accessor["bufferView"]]
     at = 20 + json_len + 8 + view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
     data = bytearray(glb)
-    data[at:at + 4] = struct.pack("<f", float("nan"))
+    if x is None:
+        stride = view.get("byteStride", 12)
+        for k in range(1, accessor["count"]):
+            data[at + k * stride:at + k * stride + 12] = data[at:at + 12]
+    else:
+        data[at:at + 4] = struct.pack("<f", x)
     return bytes(data)
+
+
+def _with_lights(doc, lights):
+    return dict(doc, extensions=dict(doc["extensions"], KHR_lights_punctual={"lights": lights}))
 
 
 def _save(scene, path):
@@ -122,7 +148,9 @@ def _embed(doc, glb, json_len):
     return json.dumps(doc).encode()
 
 
-@pytest.mark.parametrize("case", ["missing", "not gltf", "truncated", "broken accessor", "nan", "no light", "only points"])
+@pytest.mark.parametrize("case", ["missing", "a folder", "not gltf", "truncated", "broken accessor", "lost buffer",
+                                  "nan", "infinite", "all degenerate", "no light", "dark light", "negative light",
+                                  "base colour above 1", "only points", "only lines"])
 def test_bad_input_gives_one_line_status_2_and_no_output(tmp_path, capsys, case):
     path, words = _bad_inputs(tmp_path)[case]
     out = tmp_path / "out"
