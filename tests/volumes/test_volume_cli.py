@@ -118,6 +118,19 @@ def test_vertex_colours_survive_the_gltf_round_trip(cornell_bake, tmp_path, caps
     assert colors[:, :3].tobytes() == expected.tobytes()
     np.testing.assert_array_equal(colors[:, 3], 1.0)
     assert colors[:, 0].max() > 1.0  # linear incident light, not clipped
+    assert_every_material_unlit(out)
+
+
+def assert_every_material_unlit(path):
+    """The .glb at `path` marks each material KHR_materials_unlit, so a glTF viewer draws base
+    colour x COLOR_0 without lighting it again; optional, so others still load it."""
+    import pygltflib
+
+    doc = pygltflib.GLTF2.load_from_bytes(path.read_bytes())
+    assert doc.materials and all((m.extensions or {}).get("KHR_materials_unlit") == {} for m in doc.materials)
+    assert "KHR_materials_unlit" in doc.extensionsUsed
+    assert "KHR_materials_unlit" not in (doc.extensionsRequired or [])
+    assert all(p.attributes.COLOR_0 is not None for mesh in doc.meshes for p in mesh.primitives)
 
 
 def test_vertex_colours_of_an_open_floor_under_a_uniform_sky_are_the_sky(tmp_path, capsys):
@@ -130,6 +143,14 @@ def test_vertex_colours_of_an_open_floor_under_a_uniform_sky_are_the_sky(tmp_pat
     assert status == 0 and json.loads(stdout)["vertices"] > 0
     colors = load_gltf(tmp_path / "out.glb").colors
     np.testing.assert_allclose(colors, np.tile([0.1, 0.4, 0.8, 1.0], (len(colors), 1)), rtol=1e-3)
+    assert_every_material_unlit(tmp_path / "out.glb")
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary file left
+
+
+def test_vertexbake_help_says_the_materials_are_unlit(capsys):
+    status, out, _ = run(capsys, "vertexbake", "--help")
+    assert status == 0
+    assert "KHR_materials_unlit" in out and "base colour x COLOR_0" in out
 
 
 @pytest.mark.parametrize("output, message", [("out.png", "must be a .glb file"), ("missing/out.glb", "does not exist")])

@@ -3,9 +3,13 @@
 The vertex values are fitted to the solved patches around them (least squares over the
 triangles' interpolation, patches inside geometry left out; see patchlight.volumes.vertex).
 COLOR_0 = the file's vertex colour x incident light I, linear, above 1 where the light is
-bright: drawn unlit, base colour x COLOR_0 is the lit surface."""
+bright: drawn unlit, base colour x COLOR_0 is the lit surface. So every material is marked
+KHR_materials_unlit (in extensionsUsed): glTF viewers that support it (three.js, Babylon.js,
+Blender, the Khronos sample viewer) show base colour x COLOR_0 without lighting it again;
+others fall back to lit PBR, which counts the light twice. Emission is not drawn unlit."""
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
@@ -19,10 +23,12 @@ from .volume import load_solved_from_args
 
 
 def register(sub) -> None:
-    p = sub.add_parser("vertexbake", help="bake incident light to vertex colours (COLOR_0)", description=__doc__)
+    p = sub.add_parser("vertexbake", help="bake incident light to vertex colours (COLOR_0, materials unlit)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scene", metavar="SCENE_OR_BAKE_DIR",
                    help="a bake directory, a .glb/.gltf file or a built-in scene (room, cornell)")
-    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.glb")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.glb",
+                   help="the scene with COLOR_0 = incident light, every material KHR_materials_unlit")
     add_scene_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
@@ -31,8 +37,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..imaging.io import check_output_dir
-    from ..scene.gltf import save_baked_glb
-    from ..volumes.vertex import vertex_incident, with_vertex_light
+    from ..volumes.vertex import save_vertex_lit_glb, vertex_incident, with_vertex_light
 
     out = args.output
     if out.suffix.lower() != ".glb":
@@ -43,7 +48,7 @@ def run(args) -> int:
     started = time.perf_counter()
     solved = load_solved_from_args(args, quiet=args.quiet or args.json)
     incident = vertex_incident(solved)
-    save_baked_glb(with_vertex_light(solved.scene, incident), out)
+    save_vertex_lit_glb(with_vertex_light(solved.scene, incident), out)
     summary = {"scene": solved.source, "output": str(out), "vertices": len(incident),
                "incident_min": incident.min(axis=0).tolist(), "incident_max": incident.max(axis=0).tolist(),
                "incident_mean": incident.mean(axis=0).tolist(), "seconds": time.perf_counter() - started}

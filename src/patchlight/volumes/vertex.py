@@ -17,11 +17,17 @@ back faces. No light is gathered anew, so the result carries no extra noise.
 COLOR_0 = the file's vertex colour (white if none) x (I, 1): a renderer that multiplies the
 base colour by COLOR_0 and lights nothing (glTF's unlit shading, patchlight's `unlit`
 model) then shows albedo x I, the lit diffuse surface. Values are linear and exceed 1 where
-the light is bright.
+the light is bright. The light is already in COLOR_0, so save_vertex_lit_glb marks every
+material KHR_materials_unlit (listed in extensionsUsed, not extensionsRequired): glTF
+viewers that support it (three.js, Babylon.js, Blender, the Khronos sample viewer) draw
+base colour x COLOR_0 without lighting it a second time, and those that do not fall back
+to the material's PBR definition, lit again. Unlit viewers ignore emission, so an emissive
+surface shows only its reflected light; the file keeps emissiveFactor for engines that add it.
 """
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -32,6 +38,7 @@ from ..shading.textures import sample_bilinear
 from ..solved import SolvedScene
 from .probes import INSIDE_BACK_FRACTION, IncidentGatherer, VolumeSettings
 
+UNLIT = "KHR_materials_unlit"
 INSIDE_RAYS = 16       # rays per patch to tell patches inside geometry (back faces) from the rest
 REGULARIZATION = 1e-3  # lambda, relative to the mean weight a vertex gets from its patches
 
@@ -81,3 +88,22 @@ def with_vertex_light(scene: Scene, incident: np.ndarray) -> Scene:
     base = scene.colors if scene.colors is not None else np.ones((len(scene.positions), 4), np.float32)
     light = np.concatenate([incident, np.ones((len(incident), 1), np.float32)], axis=1)
     return replace(scene, colors=(base * light).astype(np.float32))
+
+
+def save_vertex_lit_glb(scene: Scene, path) -> Path:
+    """Write `scene` (colours from with_vertex_light) as one .glb, atomically, every material
+    marked KHR_materials_unlit so viewers draw base colour x COLOR_0 unlit (module docstring)."""
+    import pygltflib as gl
+
+    from ..imaging.io import atomic_path
+    from ..scene.gltf import save_baked_glb
+
+    with atomic_path(path) as tmp:
+        save_baked_glb(scene, tmp)
+        doc = gl.GLTF2.load_from_bytes(tmp.read_bytes())
+        for material in doc.materials:
+            material.extensions = {**(material.extensions or {}), UNLIT: {}}
+        if doc.materials and UNLIT not in doc.extensionsUsed:
+            doc.extensionsUsed = [*doc.extensionsUsed, UNLIT]
+        tmp.write_bytes(b"".join(doc.save_to_bytes()))
+    return Path(path)
