@@ -33,11 +33,11 @@ cell's corners i0 = min(floor(g), max(dims - 2, 0)), i1 = min(i0 + 1, dims - 1),
 Each of the eight corners c has its trilinear weight t_c (the product of f or 1 - f along
 each axis) and validity v_c. With s = sum t_c v_c and a = max(1e-3 - s, 0), corner c weighs
 t_c (v_c + a) / (s + a), and each axis' value is the weighted sum of the corners' values.
-Where s >= 1e-3 (any point with a valid corner less than 0.9 of a cell away) this is t_c v_c
-/ s: the probes inside geometry, whose filled values may come from the sunlit side of a
-wall, drop out, and a point beside the wall reads only the probes on its own side. Where
-all eight corners are invalid (s = 0) it is plain trilinear interpolation of the filled
-values, and in between the two blend continuously.
+Where s >= 1e-3 (as at any point less than 0.9 of a cell from a valid corner along each
+axis) this is t_c v_c / s: the probes inside geometry, whose filled values may come from
+the sunlit side of a wall, drop out, and a point beside the wall reads only the probes on
+its own side. Where all eight corners are invalid (s = 0) it is plain trilinear
+interpolation of the filled values, and in between the two blend continuously.
 """
 from __future__ import annotations
 
