@@ -3,10 +3,10 @@ hemicubes: the radiosity article found point lights lost at hemicube edges).
 
 Units (docs/architecture.md): each light adds incident light I = radiance-equivalent of its
 irradiance, E / pi. Sun: I = Es max(0, n.l) V / pi. Point and spot: I = Iv cos / d^2 V / pi
-(inverse-square, the physical law: a glTF range does not cut it), or with the game falloff
-`range`: I = Iv cos (1 - (d/r)^2)_+ V / pi; spot cones as KHR_lights_punctual. Point and
-spot lights use the runtime's own functions (shading.lights), so a baked lamp and the same
-lamp in the shaders give the same light.
+(inverse-square, the physical law, windowed to zero at a light's range when it has one), or
+with the game falloff `range`: I = Iv cos (1 - (d/r)^2)_+ V / pi; spot cones as
+KHR_lights_punctual. Point and spot lights use the runtime's own functions
+(shading.lights), so a baked lamp and the same lamp in the shaders give the same light.
 """
 from __future__ import annotations
 

@@ -53,10 +53,10 @@ class Target:
 def load_target(spec: str) -> Target:
     """A bake directory (`patchlight.solved.load_solved`: scene.glb, lightmap.exr, bake.json)
     or anything `patchlight.scene.load_scene` takes (never baked here)."""
-    from ..scene import load_scene
+    from ..scene import is_builtin, load_scene
     from ..solved import load_solved
 
-    if Path(spec).is_dir():
+    if not is_builtin(spec) and Path(spec).is_dir():
         solved = load_solved(spec)  # a complete bake, else its one-line error
         return Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
     return Target.from_scene(load_scene(spec))
