@@ -19,8 +19,8 @@ class Progress:
                                        TimeElapsedColumn, TimeRemainingColumn)
             from rich.console import Console
 
-            self._bar = Bar(TextColumn("{task.description:<22}"), BarColumn(), MofNCompleteColumn(),
-                            TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(),
+            self._bar = Bar(TextColumn("{task.description:<12}"), BarColumn(bar_width=16), MofNCompleteColumn(),
+                            TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(compact=True),
                             TextColumn("{task.fields[note]}"), console=Console(stderr=True),
                             transient=False)
             self._bar.__enter__()

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
+from ..scene import is_builtin
 from ..volumes.probes import MAX_SEED, VolumeSettings
 from .bake import add_scene_options, sky_from_args
 
@@ -87,10 +88,10 @@ def run(args) -> int:
         raise PatchlightError(f"--seed {args.seed}: must lie in 0..{MAX_SEED}")
     check_output_dir(args.output)
     quiet = args.quiet or args.json
-    if not Path(args.scene).is_dir():  # a scene to bake first: refuse a bad grid before the bake
+    if is_builtin(args.scene) or not Path(args.scene).is_dir():  # a scene to bake first:
         from ..scene import load_scene
 
-        choose_grid(args, load_scene(args.scene))
+        choose_grid(args, load_scene(args.scene))  # refuse a bad grid before the bake
     solved = load_solved_from_args(args, quiet)
     grid = choose_grid(args, solved.scene)
     settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
