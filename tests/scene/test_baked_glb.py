@@ -46,17 +46,23 @@ class Doc:
         self.doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="hand"))
         self.blob = bytearray()
 
-    def view(self, data: bytes) -> int:
+    def view(self, data: bytes, stride=None) -> int:
         self.blob += b"\0" * (-len(self.blob) % 4)
-        self.doc.bufferViews.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data)))
+        self.doc.bufferViews.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data),
+                                                  byteStride=stride))
         self.blob += data
         return len(self.doc.bufferViews) - 1
 
-    def accessor(self, values, component=FLOAT, kind=None, normalized=None, bounds=False) -> int:
+    def accessor(self, values, component=FLOAT, kind=None, normalized=None, bounds=False, stride=None) -> int:
         dtype = {FLOAT: "<f4", UBYTE: "<u1", USHORT: "<u2", UINT: "<u4"}[component]
         values = np.asarray(values, dtype)
         kind = kind or {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[1 if values.ndim == 1 else values.shape[1]]
-        accessor = gl.Accessor(bufferView=self.view(values.tobytes()), componentType=component, count=len(values),
+        data = values.tobytes()
+        if stride is not None:  # elements padded to `stride` bytes
+            padded = np.zeros((len(values), stride), np.uint8)
+            padded[:, :values[0].nbytes] = values.view(np.uint8).reshape(len(values), -1)
+            data = padded.tobytes()
+        accessor = gl.Accessor(bufferView=self.view(data, stride), componentType=component, count=len(values),
                                type=kind, normalized=normalized)
         if bounds:
             accessor.min = np.atleast_2d(values.T).T.min(axis=0).tolist()
@@ -89,7 +95,7 @@ class Doc:
                 NORMAL=self.accessor(p / np.linalg.norm(p, axis=1, keepdims=True)),
                 TEXCOORD_0=self.accessor(p[:, [0, 2]] + np.float32(0.5)),
                 TANGENT=self.accessor(np.concatenate([np.tile([1, 0, 0], (8, 1)), np.sign(p[:, :1])], axis=1)),
-                COLOR_0=self.accessor(np.round((p + np.float32(0.5)) * 65535), USHORT, normalized=True),
+                COLOR_0=self.accessor(np.round((p + np.float32(0.5)) * 65535), USHORT, normalized=True, stride=8),
                 JOINTS_0=self.accessor(np.zeros((8, 4)), UBYTE),
                 WEIGHTS_0=self.accessor(np.tile([1, 0, 0, 0], (8, 1)))),
             indices=self.accessor(CUBE.ravel(), UINT), material=0,
@@ -332,7 +338,8 @@ def test_python_api_bake_keeps_the_input_and_adds_lightmap_uvs(tmp_path):
     after, buffers = check_intact(source, out, tmp_path)
     check_box_primitives(after, buffers)
     floor, = after["meshes"][1]["primitives"]
-    assert "TEXCOORD_1" in floor["attributes"]
+    assert {"TEXCOORD_0", "TEXCOORD_1"} <= set(floor["attributes"])  # TEXCOORD_n numbered from 0, as glTF wants
+    assert not accessor_values(after, buffers, floor["attributes"]["TEXCOORD_0"]).any()
     check_reloaded(source, out, result.scene)
     check_lightmap(after, buffers, tmp_path / "out")
     assert after["scenes"][0]["extras"]["patchlight"] == {"sky": {"uniform": SKY}}
@@ -458,3 +465,40 @@ def test_provenance_follows_the_vertex_split(tmp_path):
     origin = [unsplit[n, v] for n, v in zip(q.vertex_node.tolist(), q.vertex_source.tolist())]
     np.testing.assert_array_equal(split.positions, scene.positions[origin])
     np.testing.assert_array_equal(q.vertex_primitive, p.vertex_primitive[origin])
+
+
+def test_mirrored_node_strips_and_points_keep_their_meaning(tmp_path):
+    """Under a mirroring node the file's winding comes back; a strip becomes the same triangles
+    as a list; a points primitive stays as it was."""
+    from patchlight.atlas.uvs import ensure_lightmap_uvs
+
+    d = Doc()
+    cube = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(CORNERS, bounds=True)),
+                        indices=d.accessor(CUBE.ravel(), UINT))
+    strip = np.array([[-2, 0, -2], [-2, 0, 2], [2, 0, -2], [2, 0, 2], [9, 9, 9]], np.float32)  # the last unused
+    ground = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(strip, bounds=True)),
+                          indices=d.accessor([0, 1, 2, 3], UINT), mode=5)
+    points = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(CORNERS, bounds=True)), mode=0)
+    d.doc.meshes = [gl.Mesh(name="cube", primitives=[cube, points]), gl.Mesh(name="ground", primitives=[ground])]
+    d.doc.nodes = [gl.Node(name="mirror", mesh=0, scale=[-1, 1, 1], translation=[0, 1, 0]), gl.Node(mesh=1)]
+    d.doc.scenes = [gl.Scene(nodes=[0, 1])]
+    source = d.glb(tmp_path / "mirror.glb")
+    scene, *_ = ensure_lightmap_uvs(load_gltf(source), resolution=RESOLUTION)
+    save_baked_glb(scene, tmp_path / "out.glb")
+    after, blob = read_glb(tmp_path / "out.glb")
+    buffers = {0: blob}
+    assert not {"images", "textures", "samplers"} & set(after)  # no empty top-level arrays
+    cube_out, points_out = after["meshes"][0]["primitives"]
+    p = accessor_values(after, buffers, cube_out["attributes"]["POSITION"])
+    tri = p[accessor_values(after, buffers, cube_out["indices"]).reshape(-1, 3)].astype(np.float64)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.all((normal * tri.mean(axis=1)).sum(axis=1) > 0)  # outward in local space, as in the file
+    assert points_out["mode"] == 0 and set(points_out) == {"attributes", "mode"}  # accessors renumbered only
+    assert set(points_out["attributes"]) == {"POSITION"}
+    np.testing.assert_array_equal(accessor_values(after, buffers, points_out["attributes"]["POSITION"]), CORNERS)
+    ground_out, = after["meshes"][1]["primitives"]
+    assert "TEXCOORD_1" in ground_out["attributes"]
+    assert after["accessors"][ground_out["attributes"]["POSITION"]]["count"] == 4  # re-indexed without it:
+    assert ground_out.get("mode", 4) == 4 and after["accessors"][ground_out["indices"]]["count"] == 6  # a list
+    np.testing.assert_allclose(world_triangles(load_gltf(tmp_path / "out.glb")), world_triangles(load_gltf(source)),
+                               rtol=0, atol=1e-6)

@@ -969,7 +969,8 @@ class _SourceWriter:
     further node, "<mesh> (lightmap k)", because each instance has its own lightmap region.
 
     A vertex block is what the loader flattened as one: the vertices of one set of attribute
-    accessors under one node.  A block whose scene vertices are exactly its accessors'
+    accessors under one world matrix (`owner`: the first node with both; nodes drawing the same
+    mesh at the same place share it).  A block whose scene vertices are exactly its accessors'
     elements, each once (no split: the file's own TEXCOORD_1 was used), keeps its accessors
     and indices; only an attribute whose values changed (TEXCOORD_1, COLOR_0 after
     `vertexbake`) gets a new accessor.  Otherwise its attributes (morph targets, JOINTS and
@@ -1006,9 +1007,9 @@ class _SourceWriter:
             return "its provenance no longer matches its vertices and triangles"
         if _file_stamp(path) != provenance.stamp:
             return f"{path} has changed (or gone) since it was loaded"
-        data = read_bytes(path)
-        text, blob = _split_glb(data, path) if data[:4] == _GLB_MAGIC else (_json_text(data, path), None)
         try:
+            data = read_bytes(path)
+            text, blob = _split_glb(data, path) if data[:4] == _GLB_MAGIC else (_json_text(data, path), None)
             doc = gl.GLTF2.from_json(text, infer_missing=True)
             writer = cls(scene, path, json.loads(text), _Importer(path, doc, blob))
             reason = writer.mismatch()
@@ -1071,7 +1072,7 @@ class _SourceWriter:
         return None
 
     def blocks(self) -> list["_VertexBlock"]:
-        """The scene's vertices grouped by (node, accessor set), each in scene order."""
+        """The scene's vertices grouped by (owner node, accessor set), each in scene order."""
         if self._blocks is None:
             p = self.provenance
             key = p.vertex_node.astype(np.int64) * (len(self.set_id) + 1) + self.vertex_set
@@ -1165,6 +1166,8 @@ class _SourceWriter:
             if not (block.same_layout and own is not None
                     and importer.floats(own, (2,), "TEXCOORD_1").tobytes() == uv1.tobytes()):
                 prepared["TEXCOORD_1"] = self.add_accessor(uv1, _FLOAT, "VEC2", vertex=True)
+                if "TEXCOORD_0" not in block.attributes:  # glTF wants TEXCOORD_n numbered from 0
+                    prepared["TEXCOORD_0"] = self.add_accessor(np.zeros_like(uv1), _FLOAT, "VEC2", vertex=True)
         if scene.colors is not None:
             colors = np.ascontiguousarray(scene.colors[rows], np.float32)
             own = block.attributes.get("COLOR_0")
@@ -1189,7 +1192,8 @@ class _SourceWriter:
         """A primitive over the block's split vertices: new attributes, morph targets and triangle list."""
         out = {key: value for key, value in primitive.items() if key not in ("attributes", "indices", "mode", "targets")}
         out["attributes"] = {name: prepared[name] for name in primitive["attributes"]}
-        out["attributes"].update({name: prepared[name] for name in ("TEXCOORD_1", "COLOR_0") if name in prepared})
+        out["attributes"].update({name: prepared[name] for name in ("TEXCOORD_0", "TEXCOORD_1", "COLOR_0")
+                                  if name in prepared})
         if primitive.get("targets"):
             if block.targets is None or block.targets[0] != (mesh, k):
                 block.targets = ((mesh, k), [{name: self.copy_accessor(index, block.sources, bounds=name == "POSITION")
@@ -1423,6 +1427,9 @@ class _SourceWriter:
         self.raw["buffers"] = [{"byteLength": len(blob)}] if blob else []
         if not self.raw["buffers"]:
             del self.raw["buffers"]
+        for key in ("accessors", "bufferViews", "meshes", "nodes", "images", "textures", "samplers"):
+            if not self.raw[key]:  # glTF forbids empty top-level arrays
+                del self.raw[key]
         text = json.dumps(self.raw, separators=(",", ":")).encode("utf-8")
         text += b" " * (-len(text) % 4)
         chunks = struct.pack("<II", len(text), _CHUNK_JSON) + text
