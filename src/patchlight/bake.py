@@ -19,6 +19,7 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.gather import Gatherer
+from .radiosity.memory import check_bake_memory, form_factor_budget
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
@@ -139,18 +140,20 @@ def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
     from .atlas.raster import rasterize, texel_points
-    from .atlas.uvs import available_memory, check_bake_memory, ensure_lightmap_uvs
+    from .atlas.uvs import ensure_lightmap_uvs
 
     settings = settings or BakeSettings()
     settings.validate()
     _check_scene(scene)
+    if settings.resolution is not None:
+        check_bake_memory(settings.resolution, settings.resolution, settings.texel_samples)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding)
-        check_bake_memory(width, height, form_factor_entries=0)  # F falls back to re-gathering
+        check_bake_memory(width, height, settings.texel_samples)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
@@ -169,7 +172,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             from .radiosity.cluster import RayCluster
 
             gatherer.cluster = RayCluster(settings.ray)
-        budget = min(settings.max_memory, available_memory() or settings.max_memory)
+        budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)

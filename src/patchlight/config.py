@@ -69,6 +69,10 @@ class BakeSettings:
             return isinstance(x, (int, float)) and math.isfinite(x)
 
         checks = [
+            (self.resolution is None or (isinstance(self.resolution, int) and 16 <= self.resolution <= 8192),
+             f"resolution: {self.resolution} is not a whole number of texels in 16..8192"),
+            (number(self.texels_per_unit) and self.texels_per_unit > 0,
+             f"texels per unit: {self.texels_per_unit} is not a positive number"),
             (self.gather in GATHERS, f"gather must be one of {', '.join(GATHERS)}"),
             (self.falloff in FALLOFFS, f"falloff must be one of {', '.join(FALLOFFS)}"),
             (isinstance(self.passes, int) and self.passes >= 1, "passes must be a whole number >= 1"),

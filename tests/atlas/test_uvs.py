@@ -8,7 +8,7 @@ from scipy.ndimage import distance_transform_cdt
 
 from patchlight.atlas import _kernels, uvs
 from patchlight.atlas.raster import rasterize
-from patchlight.atlas.uvs import check_bake_memory, ensure_lightmap_uvs, estimate_bake_bytes, uv_charts
+from patchlight.atlas.uvs import ensure_lightmap_uvs, uv_charts
 from patchlight.errors import PatchlightError
 
 
@@ -138,9 +138,3 @@ def test_absurd_sizes_and_bad_options_are_refused():
         ensure_lightmap_uvs(flat)
 
 
-def test_bake_memory_estimate_and_refusal():
-    assert estimate_bake_bytes(2048, 1024) == 2 * estimate_bake_bytes(1024, 1024)
-    assert estimate_bake_bytes(64, 64, form_factor_entries=0) == 64 * 64 * uvs.BYTES_PER_TEXEL
-    check_bake_memory(64, 64, available_bytes=10**12)
-    with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about .* lower --resolution"):
-        check_bake_memory(4096, 4096, available_bytes=2**30)

@@ -168,9 +168,9 @@ def test_absurd_resolution_is_refused(tmp_path, capsys):
 
 
 def test_lightmap_too_large_for_memory_is_refused_with_the_estimate(tmp_path, capsys, monkeypatch):
-    import patchlight.atlas.uvs as uvs
+    import patchlight.radiosity.memory as memory
 
-    monkeypatch.setattr(uvs, "available_memory", lambda: 256 << 20)
+    monkeypatch.setattr(memory, "available_memory", lambda: 256 << 20)
     status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "2048", "--quiet")
     assert status == 2 and "GiB" in err and "--resolution" in err
     assert not (tmp_path / "out").exists()

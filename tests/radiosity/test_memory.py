@@ -1,6 +1,7 @@
 """When the form-factor matrix would not fit, passes re-gather its rows: slower, bounded
 memory, the same answer."""
 import numpy as np
+import pytest
 
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
@@ -28,3 +29,29 @@ def test_a_budget_that_fills_up_mid_gather_drops_the_matrix_and_keeps_the_answer
     assert 0 < half.stats["rays_regather"] < kept.stats["rays_gather"] * half.stats["passes"] * 2
     np.testing.assert_allclose(half.lightmap, kept.lightmap, rtol=1e-5, atol=1e-7)
 
+
+
+def test_the_estimate_refuses_what_would_not_fit_and_names_a_resolution_that_would():
+    from patchlight.errors import PatchlightError
+    from patchlight.radiosity.memory import check_bake_memory, estimate_bake_bytes, form_factor_budget
+
+    assert estimate_bake_bytes(2048, 1024) == 2 * estimate_bake_bytes(1024, 1024)
+    assert estimate_bake_bytes(1024, 1024, texel_samples=4) > estimate_bake_bytes(1024, 1024)
+    check_bake_memory(64, 64, available=10**12)
+    with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about .* lower --resolution \(about 1"):
+        check_bake_memory(4096, 4096, available=2**30)
+    # F gets what the rest leaves, never more than --max-memory, never below zero
+    assert form_factor_budget(1024, 1024, 8 << 30, available=4 << 30) < (4 << 30) - estimate_bake_bytes(1024, 1024) + 1
+    assert form_factor_budget(64, 64, 1 << 20, available=64 << 30) == 1 << 20
+    assert form_factor_budget(4096, 4096, 8 << 30, available=1 << 30) == 0
+
+
+def test_a_resolution_too_large_for_memory_is_refused_before_any_work(monkeypatch):
+    import patchlight.atlas.uvs as uvs
+    import patchlight.radiosity.memory as memory
+    from patchlight.errors import PatchlightError
+
+    monkeypatch.setattr(memory, "available_memory", lambda: 1 << 30)
+    monkeypatch.setattr(uvs, "ensure_lightmap_uvs", lambda *a, **k: pytest.fail("made UVs before refusing"))
+    with pytest.raises(PatchlightError, match="lightmap 8192x8192"):
+        bake(load_scene("cornell"), BakeSettings(resolution=8192))

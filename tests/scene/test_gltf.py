@@ -620,6 +620,7 @@ def glb_json(path) -> dict:
 
 def test_baked_glb_layout_for_three_js(tmp_path):
     scene = rich_scene(tmp_path)
+    scene.provenance = None  # the flattened writer of built-in scenes (tests/scene/test_baked_glb.py: files)
     lightmap = encode_png(np.full((2, 2, 4), 9, np.uint8))
     path = save_baked_glb(scene, tmp_path / "baked.glb", lightmap, {"rgbmRange": 6, "exposure": 0.5})
     doc = glb_json(path)
@@ -650,6 +651,7 @@ def test_baked_glb_layout_for_three_js(tmp_path):
 
 def test_baked_glb_groups_interleaved_materials_and_needs_uv1_for_a_lightmap(tmp_path):
     scene = rich_scene(tmp_path)
+    scene.provenance = None  # reordered triangles: the flattened writer
     order = np.array([2, 0, 1])
     scene.indices, scene.material_ids = scene.indices[order], scene.material_ids[order]
     back = load_gltf(save_baked_glb(scene, tmp_path / "plain.glb"))

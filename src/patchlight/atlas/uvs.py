@@ -45,8 +45,6 @@ CELL_MARGIN = 0.01              # texels kept free inside a chart's cell, so flo
                                 # (5e-4 texel at 8192) never spills a chart into the next texel
 CHILD_TIMEOUT_BASE_S = 60.0     # xatlas child timeout = base + per-triangle x T
 CHILD_TIMEOUT_PER_TRIANGLE_S = 2e-3
-FORM_FACTOR_ENTRIES = 256       # typical stored form-factor entries per patch (estimate only)
-BYTES_PER_TEXEL = 200           # patch arrays, light vectors, images and tracer share per texel
 
 
 @dataclass
@@ -99,27 +97,6 @@ def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, reso
     return out, width, height, info
 
 
-def estimate_bake_bytes(width: int, height: int, form_factor_entries: int = FORM_FACTOR_ENTRIES) -> int:
-    """Rough peak memory of baking a W x H lightmap, in bytes, assuming every texel is a patch.
-
-    Per texel: BYTES_PER_TEXEL for patch attributes, light vectors and images, plus
-    form_factor_entries sparse form-factor entries of 8 bytes (f32 value + i32 column)."""
-    return int(width) * int(height) * (BYTES_PER_TEXEL + 8 * int(form_factor_entries))
-
-
-def check_bake_memory(width: int, height: int, available_bytes: int | None = None,
-                      form_factor_entries: int = FORM_FACTOR_ENTRIES) -> None:
-    """Refuse (PatchlightError) a lightmap whose estimated bake memory exceeds what is available."""
-    needed = estimate_bake_bytes(width, height, form_factor_entries)
-    available = available_memory() if available_bytes is None else int(available_bytes)
-    if available > 0 and needed > available:
-        side = int(math.sqrt(available / needed) * min(width, height)) // 4 * 4
-        raise PatchlightError(
-            f"lightmap {width}x{height}: the bake needs about {needed / 2**30:.1f} GiB but only "
-            f"{available / 2**30:.1f} GiB is available; lower --resolution (about {max(side, MIN_SIZE)}) "
-            f"or --texels-per-unit")
-
-
 def uv_charts(uv1: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, int]:
     """Chart id (T,) i32 of each triangle and the chart count: connected components of
     triangles sharing a UV edge (both end points with bit-identical uv1)."""
@@ -170,12 +147,24 @@ def _keep_texcoord1(scene, texels_per_unit, resolution):
     else:
         density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
         # W^2 * uv_area texels must hold world_area * density^2
-        size = _round_up4(density * math.sqrt(world_area / uv_area))
-        size = min(max(size, MIN_SIZE), MAX_SIZE)
+        size = max(_round_up4(density * math.sqrt(world_area / uv_area)), MIN_SIZE)
+        if size > MAX_SIZE:
+            raise PatchlightError(f"{where}: its TEXCOORD_1 at {density:g} texels per metre needs a {size}x{size} "
+                                  f"lightmap (limit {MAX_SIZE}); lower --texels-per-unit or set --resolution")
     _, charts = uv_charts(uv1, scene.indices)
     info = {"uv_source": "TEXCOORD_1", "charts": charts, "width": size, "height": size,
-            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": []}
+            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": _outside_unit_square(uv1, scene)}
     return scene, size, size, info
+
+
+def _outside_unit_square(uv1, scene) -> list[str]:
+    """One warning line when TEXCOORD_1 strays outside [0, 1], where no texel is."""
+    corners = uv1[scene.indices]
+    outside = np.any((corners < 0) | (corners > 1), axis=(1, 2))
+    if not outside.any():
+        return []
+    return [f"{scene.label}: {int(outside.sum())} triangles reach outside TEXCOORD_1's [0, 1] square; "
+            f"their parts outside get no lightmap texels"]
 
 
 def _uv_areas(uv, indices):
@@ -392,18 +381,3 @@ def _check_density(scene, texels_per_unit):
 
 def _round_up4(value):
     return int(math.ceil(value / 4.0)) * 4
-
-
-def available_memory() -> int:
-    """Bytes of memory available now (Linux MemAvailable, else free pages; 0 when unknown)."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 0

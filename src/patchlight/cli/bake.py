@@ -99,7 +99,7 @@ def sky_from_args(args):
     if args.sky_image is not None:
         from ..imaging.io import read_environment
 
-        return Sky.from_image(read_environment(args.sky_image))
+        return Sky.from_image(read_environment(args.sky_image), source=args.sky_image)
     return None
 
 
