@@ -138,3 +138,12 @@ def test_absurd_sizes_and_bad_options_are_refused():
         ensure_lightmap_uvs(flat)
 
 
+
+
+def test_texcoord1_outside_the_unit_square_is_warned_and_too_dense_is_refused():
+    scene = quad_scene()
+    scene.uv1 = scene.uv1 * 2 - 0.5     # reaches from -0.5 to 1.5
+    _, _, _, info = ensure_lightmap_uvs(scene, resolution=32)
+    assert len(info["warnings"]) == 1 and "outside TEXCOORD_1's [0, 1] square" in info["warnings"][0]
+    with pytest.raises(PatchlightError, match="needs a .* lightmap \\(limit 8192\\)"):
+        ensure_lightmap_uvs(quad_scene(), texels_per_unit=1e9)
