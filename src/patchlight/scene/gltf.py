@@ -92,6 +92,7 @@ from .sky import Sky
 
 # Photometric -> radiometric: 683 lm/W at 555 nm (KHR_lights_punctual intensities are lux / candela).
 LUMENS_PER_WATT = 683.0
+UNLIT = "KHR_materials_unlit"  # vertex-baked light: viewers show base colour x COLOR_0 as it is
 
 SUPPORTED_REQUIRED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                  "KHR_mesh_quantization"}
@@ -777,11 +778,13 @@ def _rgba(image: np.ndarray) -> np.ndarray:
 # =========================================================================== export
 
 def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = None,
-                   lightmap_meta: dict | None = None) -> Path:
+                   lightmap_meta: dict | None = None, unlit: bool = False) -> Path:
     """Write `scene` (and its RGBM lightmap PNG, if given) as one .glb, atomically; returns the path.
 
     lightmap_meta: JSON-able dict stored with the lightmap; it must hold "rgbmRange" (> 0, the
     value an RGBM texel with rgb = a = 1 decodes to).  Layout: see the module docstring.
+    unlit: mark every material KHR_materials_unlit (used, not required): the light is baked
+    into COLOR_0, so viewers must not light it again.
     A scene loaded from a glTF file is written as that file's document plus TEXCOORD_1
     (`_SourceWriter`); a built-in scene, or one whose provenance no longer describes it, as
     the flattened world-space copy (`_GlbWriter`).
@@ -792,21 +795,25 @@ def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = N
         _lightmap_description(lightmap_rgbm_png_bytes, lightmap_meta or {})  # refuse bad input before any work
     source = _SourceWriter.open(scene)
     if isinstance(source, _SourceWriter):
-        glb = source.write(Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {})
+        glb = source.write(Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
     else:
         if source is not None:
             warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
-        glb = _flattened_glb(scene, Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {})
+        glb = _flattened_glb(scene, Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
     with atomic_path(path) as tmp:
         tmp.write_bytes(glb)
     return Path(path)
 
 
-def _flattened_glb(scene: Scene, folder: Path, png: bytes | None, meta: dict) -> bytes:
+def _flattened_glb(scene: Scene, folder: Path, png: bytes | None, meta: dict, unlit: bool) -> bytes:
     """The world-space soup as one .glb: one identity node and mesh per material."""
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
     writer.doc.materials = [writer.material(m) for m in scene.materials]
+    if unlit:
+        for material in writer.doc.materials:
+            material.extensions = {**(material.extensions or {}), UNLIT: {}}
+        writer.use_extension(UNLIT)
     nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
     sky = scene.sky.to_extras(folder) if scene.sky is not None else None
     writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras={"patchlight": {"sky": sky}} if sky else {})]
@@ -1097,17 +1104,26 @@ class _SourceWriter:
 
     # ------------------------------------------------------------------ the document
 
-    def write(self, folder: Path, png: bytes | None, meta: dict) -> bytes:
+    def write(self, folder: Path, png: bytes | None, meta: dict, unlit: bool = False) -> bytes:
         """The .glb bytes; folder: where it will live (image sky paths are relative to it)."""
         primitives = self.rewritten_primitives()
         self.assign_meshes(primitives)
         self.drop_unused_draco()
         if png is not None:
             self.lightmap(png, meta)
+        if unlit:
+            self.mark_unlit()
         self.sky(folder)
         self.embed_external_images()
         self.compact()
         return self.container()
+
+    def mark_unlit(self) -> None:
+        """KHR_materials_unlit on every material, listed as used (not required)."""
+        for material in self.raw.get("materials") or []:
+            material.setdefault("extensions", {})[UNLIT] = {}
+        if self.raw.get("materials") and UNLIT not in self.raw.setdefault("extensionsUsed", []):
+            self.raw["extensionsUsed"].append(UNLIT)
 
     def rewritten_primitives(self) -> dict[int, list[dict]]:
         """node -> its mesh's primitives (JSON) as this instance writes them."""

@@ -38,7 +38,6 @@ from ..shading.textures import sample_bilinear
 from ..solved import SolvedScene
 from .probes import INSIDE_BACK_FRACTION, IncidentGatherer, VolumeSettings
 
-UNLIT = "KHR_materials_unlit"
 INSIDE_RAYS = 16       # rays per patch to tell patches inside geometry (back faces) from the rest
 REGULARIZATION = 1e-3  # lambda, relative to the mean weight a vertex gets from its patches
 
@@ -93,17 +92,6 @@ def with_vertex_light(scene: Scene, incident: np.ndarray) -> Scene:
 def save_vertex_lit_glb(scene: Scene, path) -> Path:
     """Write `scene` (colours from with_vertex_light) as one .glb, atomically, every material
     marked KHR_materials_unlit so viewers draw base colour x COLOR_0 unlit (module docstring)."""
-    import pygltflib as gl
-
-    from ..imaging.io import atomic_path
     from ..scene.gltf import save_baked_glb
 
-    with atomic_path(path) as tmp:
-        save_baked_glb(scene, tmp)
-        doc = gl.GLTF2.load_from_bytes(tmp.read_bytes())
-        for material in doc.materials:
-            material.extensions = {**(material.extensions or {}), UNLIT: {}}
-        if doc.materials and UNLIT not in doc.extensionsUsed:
-            doc.extensionsUsed = [*doc.extensionsUsed, UNLIT]
-        tmp.write_bytes(b"".join(doc.save_to_bytes()))
-    return Path(path)
+    return save_baked_glb(scene, path, unlit=True)
