@@ -127,13 +127,15 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) ->
 
 
 def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray, status: np.ndarray) -> np.ndarray:
-    """(N, 3) incident light with only its gathered part denoised (by OIDN, over the filled
-    lightmap image): ray-traced direct light and its sharp shadows stay as they are."""
+    """(N, 3) incident light with only its gathered part denoised (by OIDN, chart by chart):
+    ray-traced direct light and its sharp shadows stay as they are."""
     from .imaging.denoise import denoise_lightmap
 
-    clean = denoise_lightmap(fill_lightmap(patches, gathered, status))[patches.texel_y, patches.texel_x]
-    incident = direct + clean
-    incident[status == adaptive.INSIDE] = 0.0
+    inside = status == adaptive.INSIDE
+    charts = patches.to_image(np.where(inside, -1, patches.chart).astype(np.int32), fill=-1)
+    clean = denoise_lightmap(patches.to_image(gathered.astype(np.float32)), charts)
+    incident = direct + clean[patches.texel_y, patches.texel_x]
+    incident[inside] = 0.0
     return incident
 
 

@@ -1,12 +1,73 @@
-"""Denoising a lightmap with Intel Open Image Denoise (its HDR lightmap filter)."""
+"""Denoising a lightmap with Intel Open Image Denoise (its HDR lightmap filter), chart by chart.
+
+A lightmap packs unrelated surfaces side by side, two texels apart. Denoised as one picture,
+light from one chart bleeds into the next (the room at 64 x 64 came out 2.5 times further
+from the converged answer than before denoising). So each chart is cut out with MARGIN texels
+around it, every texel of the cut-out that is not the chart's own takes the chart's nearest
+texel, blurred (a replicated noisy edge would read as streaks, which OIDN keeps), the
+cut-outs are shelf-packed into one canvas, OIDN runs once on it, and each chart takes back
+only its own texels. RMS error against a converged bake (512 stratified rays, adaptive):
+room 128 x 128 3.3 % raw -> 2.8 %, cornell 64 15.6 % -> 10.1 %, cornell 128 15.2 % -> 7.1 %;
+the room at 64 x 64, whose charts are a few texels wide, 3.4 % -> 4.7 %.
+"""
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
+
+MARGIN = 8  # texels of a chart's own light around it: OIDN's filter reaches little further
+BLUR = 5    # box filter width over the filled margin
 
 
-def denoise_lightmap(image: np.ndarray) -> np.ndarray:
-    """(H, W, 3) f32 HDR lightmap denoised by OIDN's RTLightmap filter on the CPU."""
+def denoise_lightmap(image: np.ndarray, charts: np.ndarray) -> np.ndarray:
+    """(H, W, 3) f32 HDR lightmap denoised chart by chart. charts: (H, W) i32 chart id of
+    every texel with a value of its own, -1 elsewhere (those come back unchanged)."""
     import pyoidn
 
-    clean = pyoidn.denoise(np.ascontiguousarray(image, np.float32), filter_type=pyoidn.OIDN_FILTER_TYPE_RT_LIGHTMAP)
-    return np.maximum(clean, 0.0)
+    pieces = _cut_out(np.asarray(image, np.float32), charts)
+    if not pieces:
+        return np.array(image, np.float32)
+    canvas, places = _pack([p for _, _, p in pieces])
+    clean = pyoidn.denoise(canvas, filter_type=pyoidn.OIDN_FILTER_TYPE_RT_LIGHTMAP)
+    out = np.array(image, np.float32)
+    for (box, own, piece), (y, x) in zip(pieces, places):
+        h, w = own.shape
+        out[box][own] = np.maximum(clean[y:y + h, x:x + w][own], 0.0)
+    return out
+
+
+def _cut_out(image: np.ndarray, charts: np.ndarray) -> list[tuple]:
+    """Per chart: (box slices into the image, own (h, w) bool, piece (h, w, 3) with every
+    texel that is not the chart's own filled from the chart's nearest texel, blurred)."""
+    pieces = []
+    height, width = charts.shape
+    for chart, box in enumerate(ndimage.find_objects(charts + 1)):
+        if box is None:
+            continue
+        ys, xs = box
+        box = (slice(max(ys.start - MARGIN, 0), min(ys.stop + MARGIN, height)),
+               slice(max(xs.start - MARGIN, 0), min(xs.stop + MARGIN, width)))
+        own = charts[box] == chart
+        nearest = ndimage.distance_transform_edt(~own, return_distances=False, return_indices=True)
+        filled = image[box][nearest[0], nearest[1]]
+        blurred = ndimage.uniform_filter(filled, size=(BLUR, BLUR, 1))
+        pieces.append((box, own, np.where(own[..., None], filled, blurred)))
+    return pieces
+
+
+def _pack(pieces: list[np.ndarray]) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """Shelf-pack pieces (h, w, 3), tallest first, into one canvas about as wide as the
+    widest piece or the square root of their total area; returns it and each piece's corner."""
+    width = max(max(p.shape[1] for p in pieces), int(np.sqrt(sum(p.shape[0] * p.shape[1] for p in pieces))))
+    places = [None] * len(pieces)
+    x = y = shelf = 0
+    for i in sorted(range(len(pieces)), key=lambda i: -pieces[i].shape[0]):
+        h, w = pieces[i].shape[:2]
+        if x + w > width:
+            x, y, shelf = 0, y + shelf, 0
+        places[i] = (y, x)
+        x, shelf = x + w, max(shelf, h)
+    canvas = np.zeros((y + shelf, width, 3), np.float32)
+    for piece, (py, px) in zip(pieces, places):
+        canvas[py:py + piece.shape[0], px:px + piece.shape[1]] = piece
+    return canvas, places
