@@ -53,6 +53,13 @@ class RecordedRays:
         return sum(len(o) for o, _, far in self.batches if (far is not None) == occlusion)
 
 
+def trace(es, origins, directions, far):
+    """One bare embreex call on contiguous arrays: closest hit, or occlusion when far is given."""
+    if far is None:
+        return es.run(origins, directions, output=1)
+    return es.run(origins, directions, dists=far, query="OCCLUDED")
+
+
 def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
     """Seconds bare embreex needs for the recorded closest-hit and occlusion rays."""
     from embreex import rtcore_scene
@@ -64,13 +71,10 @@ def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
     pool = ThreadPoolExecutor(threads)
     seconds = {True: 0.0, False: 0.0}
     for o, d, far in rays.batches:
-        parts = np.array_split(np.arange(len(o)), threads)
-        if far is None:
-            trace = lambda idx: es.run(o[idx], d[idx], output=1)  # noqa: E731
-        else:
-            trace = lambda idx: es.run(o[idx], d[idx], dists=far[idx], query="OCCLUDED")  # noqa: E731
+        bounds = np.linspace(0, len(o), threads + 1).astype(int)
+        parts = [(o[a:b], d[a:b], None if far is None else far[a:b].copy()) for a, b in zip(bounds, bounds[1:])]
         start = time.perf_counter()
-        list(pool.map(trace, parts))
+        list(pool.map(lambda part: trace(es, *part), parts))
         seconds[far is not None] += time.perf_counter() - start
     return seconds[False], seconds[True]
 

@@ -117,12 +117,18 @@ def item_buffer_rows(seen, weights, sky_radiance):
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
     per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
-    Returns CSR (indptr (R+1,), indices, data; each row's columns ascending, duplicates
+    Returns CSR (indptr (R+1,), indices, data; columns in first-seen order, duplicates
     summed), the sky term (R, 3) and the share of each patch's rays that hit back faces (R,).
-    Scratch space is per row (D), never per patch, so it does not grow with the lightmap.
+    Duplicates meet in a hash table of 2 D slots, cleared per row: scratch space and work
+    per ray stay constant however large the lightmap.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
+    size = 1
+    while size < 2 * d:
+        size *= 2
+    keys = np.empty(size, np.int32)     # patch id in each slot, -1 = free
+    slots = np.empty(size, np.int64)    # where that patch's entry is in indices / data
     indptr = np.zeros(rows + 1, np.int64)
     indices = np.empty(seen.shape[0], np.int32)
     data = np.empty(seen.shape[0], np.float32)
@@ -131,29 +137,29 @@ def item_buffer_rows(seen, weights, sky_radiance):
     nnz = 0
     k_sky = 0
     for r in range(rows):
-        row = seen[r * d:(r + 1) * d]
-        for j in range(d):  # sky and back faces, in ray order (sky_radiance's order)
-            if row[j] == SKY:
+        keys[:] = -1
+        for j in range(d):
+            s = seen[r * d + j]
+            if s >= 0:
+                h = (s * 2654435761) & (size - 1)  # Knuth's multiplicative hash
+                while keys[h] != -1 and keys[h] != s:
+                    h = (h + 1) & (size - 1)
+                if keys[h] == s:
+                    data[slots[h]] += weights[j]
+                else:
+                    keys[h] = s
+                    slots[h] = nnz
+                    indices[nnz] = s
+                    data[nnz] = weights[j]
+                    nnz += 1
+            elif s == SKY:
                 for c in range(3):
                     sky[r, c] += weights[j] * sky_radiance[k_sky, c]
                 k_sky += 1
-            elif row[j] == BACK_FACE:
+            elif s == BACK_FACE:
                 back[r] += 1.0
-        back[r] /= d
-        order = np.argsort(row, kind="mergesort")
-        last = -1
-        for j in order:  # patches, ascending: equal ids are neighbours, summed into one entry
-            s = row[j]
-            if s < 0:
-                continue
-            if s != last:
-                indices[nnz] = s
-                data[nnz] = weights[j]
-                nnz += 1
-                last = s
-            else:
-                data[nnz - 1] += weights[j]
         indptr[r + 1] = nnz
+        back[r] /= d
     return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back
 
 
