@@ -264,3 +264,16 @@ def test_ray_origins_clear_float32_rounding_without_skipping_thin_geometry_in_a_
     assert np.all(lift < 0.01)           # a 15 cm slab still shadows (2e-4 x the size lifted 20 cm)
     assert lift[0] >= 1e-5 * 400         # over a hundred float32 steps at 400 m (one is 3e-5 m)
     assert lift[1] == pytest.approx(0.05 / 16)
+
+
+def test_a_coarse_hemicube_turned_per_patch_stays_near_a_fine_stratified_gather():
+    """Hemicubes all facing the same way on a wall alias into bands; turned about each
+    patch's normal, their error becomes fine noise (room 48: p99 12 % unturned, 4 % turned)."""
+    room = load_scene("room")
+    fine = bake(room, BakeSettings(resolution=48, rays=4096, adaptive=False, tolerance=1e-4))
+    coarse = bake(room, BakeSettings(resolution=48, gather="hemicube", hemicube_size=32, adaptive=False,
+                                     tolerance=1e-4))
+    ok = (coarse.status != adaptive.INSIDE) & (fine.status != adaptive.INSIDE)
+    a, b = coarse.solution.incident[ok].sum(1), fine.solution.incident[ok].sum(1)
+    lit = b > 1e-2 * b.mean()
+    assert np.percentile(np.abs(a[lit] / b[lit] - 1), 99) < 0.07

