@@ -82,6 +82,7 @@ def _bad_inputs(tmp_path):
     json_len = struct.unpack_from("<I", good, 12)[0]
     doc = json.loads(good[20:20 + json_len])
     broken = dict(doc, accessors=[dict(a, bufferView=99) for a in doc["accessors"]])
+    uncounted = dict(doc, accessors=[dict(a, count=-3) for a in doc["accessors"]])
     dark = lit_quad()
     dark.lights = []
     points = dict(doc, meshes=[{"primitives": [dict(p, mode=0) for p in m["primitives"]]} for m in doc["meshes"]])
@@ -106,6 +107,7 @@ def _bad_inputs(tmp_path):
         "not gltf": (_write(tmp_path / "noise.glb", bytes(range(256)) * 4), "glTF"),
         "truncated": (_write(tmp_path / "cut.glb", good[: len(good) // 2]), "truncated"),
         "broken accessor": (_write(tmp_path / "broken.gltf", json.dumps(broken).encode()), "bufferView"),
+        "negative count": (_write(tmp_path / "negative.gltf", _embed(uncounted, good, json_len)), "count -3"),
         "nan": (_write(tmp_path / "nan.glb", _with_position(good, doc, json_len, float("nan"))), "NaN"),
         "no light": (_save(dark, tmp_path / "dark.glb"), "nothing lights"),
         "only points": (_write(tmp_path / "points.gltf", _embed(points, good, json_len)), "no triangle"),
@@ -148,7 +150,8 @@ def _embed(doc, glb, json_len):
     return json.dumps(doc).encode()
 
 
-@pytest.mark.parametrize("case", ["missing", "a folder", "not gltf", "truncated", "broken accessor", "lost buffer",
+@pytest.mark.parametrize("case", ["missing", "a folder", "not gltf", "truncated", "broken accessor",
+                                  "negative count", "lost buffer",
                                   "nan", "infinite", "all degenerate", "no light", "dark light", "negative light",
                                   "base colour above 1", "only points", "only lines"])
 def test_bad_input_gives_one_line_status_2_and_no_output(tmp_path, capsys, case):

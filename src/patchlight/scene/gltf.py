@@ -357,6 +357,8 @@ class _Importer:
     def _strided(self, view_index, offset: int, count: int, width: int, dtype: np.dtype, what: str) -> np.ndarray:
         """(count, width) elements read from a bufferView at `offset`, honouring byteStride."""
         data = self.view_bytes(view_index)
+        if not isinstance(count, int) or count < 0 or not isinstance(offset, int) or offset < 0:
+            raise self.fail(f"{what}: count {count!r} and byteOffset {offset!r} must be whole numbers >= 0")
         element = width * dtype.itemsize
         stride = self.doc.bufferViews[view_index].byteStride or element
         if stride < element:
