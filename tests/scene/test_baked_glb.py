@@ -2,7 +2,6 @@
 transforms, materials, samplers, textures, image bytes, cameras, lights, skins, animations and
 extras kept; vertices split in local space; one mesh copy per further instance; the sky and the
 three.js-facing lightmap description in the extras."""
-import base64
 import json
 import math
 import struct
@@ -20,7 +19,8 @@ from patchlight.imaging.io import decode_image, encode_png, read_exr, write_hdr
 from patchlight.scene import load_scene
 from patchlight.scene.gltf import load_gltf, save_baked_glb
 
-FLOAT, UBYTE, USHORT, UINT = 5126, 5121, 5123, 5125
+from gltf_builder import FLOAT, UBYTE, UINT, USHORT, Builder
+
 RESOLUTION = 64
 SKY = [0.4, 0.5, 0.7]
 CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)], np.float32)
@@ -38,37 +38,13 @@ BASE_PNG = png([[200, 40, 40, 255], [40, 200, 40, 128], [40, 40, 200, 255], [250
 METAL_ROUGH_PNG = png([[0, 51, 255, 255]] * 4)
 
 
-class Doc:
+class Doc(Builder):
     """The input document: a parent node turned and moved, its child drawing the box, a second
     root drawing the same box (with a skin), a floor, a sun, a camera, an animation."""
 
     def __init__(self):
-        self.doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="hand"))
-        self.blob = bytearray()
-
-    def view(self, data: bytes, stride=None) -> int:
-        self.blob += b"\0" * (-len(self.blob) % 4)
-        self.doc.bufferViews.append(gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data),
-                                                  byteStride=stride))
-        self.blob += data
-        return len(self.doc.bufferViews) - 1
-
-    def accessor(self, values, component=FLOAT, kind=None, normalized=None, bounds=False, stride=None) -> int:
-        dtype = {FLOAT: "<f4", UBYTE: "<u1", USHORT: "<u2", UINT: "<u4"}[component]
-        values = np.asarray(values, dtype)
-        kind = kind or {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[1 if values.ndim == 1 else values.shape[1]]
-        data = values.tobytes()
-        if stride is not None:  # elements padded to `stride` bytes
-            padded = np.zeros((len(values), stride), np.uint8)
-            padded[:, :values[0].nbytes] = values.view(np.uint8).reshape(len(values), -1)
-            data = padded.tobytes()
-        accessor = gl.Accessor(bufferView=self.view(data, stride), componentType=component, count=len(values),
-                               type=kind, normalized=normalized)
-        if bounds:
-            accessor.min = np.atleast_2d(values.T).T.min(axis=0).tolist()
-            accessor.max = np.atleast_2d(values.T).T.max(axis=0).tolist()
-        self.doc.accessors.append(accessor)
-        return len(self.doc.accessors) - 1
+        super().__init__()
+        self.doc.asset.generator = "hand"
 
     def build(self):
         d = self.doc
@@ -95,15 +71,15 @@ class Doc:
                 NORMAL=self.accessor(p / np.linalg.norm(p, axis=1, keepdims=True)),
                 TEXCOORD_0=self.accessor(p[:, [0, 2]] + np.float32(0.5)),
                 TANGENT=self.accessor(np.concatenate([np.tile([1, 0, 0], (8, 1)), np.sign(p[:, :1])], axis=1)),
-                COLOR_0=self.accessor(np.round((p + np.float32(0.5)) * 65535), USHORT, normalized=True, stride=8),
-                JOINTS_0=self.accessor(np.zeros((8, 4)), UBYTE),
+                COLOR_0=self.accessor(np.round((p + np.float32(0.5)) * 65535), component=USHORT, normalized=True, stride=8),
+                JOINTS_0=self.accessor(np.zeros((8, 4)), component=UBYTE),
                 WEIGHTS_0=self.accessor(np.tile([1, 0, 0, 0], (8, 1)))),
-            indices=self.accessor(CUBE.ravel(), UINT), material=0,
+            indices=self.accessor(CUBE.ravel(), component=UINT), material=0,
             targets=[{"POSITION": self.accessor(p * MORPH, bounds=True)}])
         floor = np.array([[-3, 0, -3], [3, 0, -3], [3, 0, 3], [-3, 0, 3]], np.float32)
         floor_primitive = gl.Primitive(
             attributes=gl.Attributes(POSITION=self.accessor(floor, bounds=True), NORMAL=self.accessor(np.tile([0, 1, 0], (4, 1)))),
-            indices=self.accessor([0, 2, 1, 0, 3, 2], UINT), material=1)
+            indices=self.accessor([0, 2, 1, 0, 3, 2], component=UINT), material=1)
         d.meshes = [gl.Mesh(name="Box", primitives=[box], weights=[0.0], extras={"mesh": "extra"}),
                     gl.Mesh(name="Floor", primitives=[floor_primitive])]
         turn = [0.0, math.sin(math.radians(15)), 0.0, math.cos(math.radians(15))]
@@ -132,11 +108,6 @@ class Doc:
         d.extras = {"author": "someone"}
         return self
 
-    def glb(self, path):
-        self.doc.buffers = [gl.Buffer(byteLength=len(self.blob))]
-        self.doc.set_binary_blob(bytes(self.blob))
-        path.write_bytes(b"".join(self.doc.save_to_bytes()))
-        return path
 
     def gltf(self, path):
         """A .gltf: buffer in in.bin beside it; the base-colour image moved to base.png beside it."""
@@ -474,10 +445,10 @@ def test_mirrored_node_strips_and_points_keep_their_meaning(tmp_path):
 
     d = Doc()
     cube = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(CORNERS, bounds=True)),
-                        indices=d.accessor(CUBE.ravel(), UINT))
+                        indices=d.accessor(CUBE.ravel(), component=UINT))
     strip = np.array([[-2, 0, -2], [-2, 0, 2], [2, 0, -2], [2, 0, 2], [9, 9, 9]], np.float32)  # the last unused
     ground = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(strip, bounds=True)),
-                          indices=d.accessor([0, 1, 2, 3], UINT), mode=5)
+                          indices=d.accessor([0, 1, 2, 3], component=UINT), mode=5)
     points = gl.Primitive(attributes=gl.Attributes(POSITION=d.accessor(CORNERS, bounds=True)), mode=0)
     d.doc.meshes = [gl.Mesh(name="cube", primitives=[cube, points]), gl.Mesh(name="ground", primitives=[ground])]
     d.doc.nodes = [gl.Node(name="mirror", mesh=0, scale=[-1, 1, 1], translation=[0, 1, 0]), gl.Node(mesh=1)]
