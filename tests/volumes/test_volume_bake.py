@@ -185,3 +185,21 @@ def test_probe_above_a_lit_floor_sees_its_excident_light_below():
     np.testing.assert_allclose(floor_I, sky_and_sun, rtol=0.01)  # the bake itself
     np.testing.assert_allclose(probe(volume)[4], rho * floor_I, rtol=0.01)
     np.testing.assert_allclose(probe(volume)[1], sky_and_sun, rtol=1e-4)
+
+
+def test_the_room_floor_reads_the_same_light_at_its_surface_and_a_hair_above():
+    """With probes on the floor's own plane (a grid reaching the box's faces at 0.5 m spacing),
+    half their rays meet the floor from behind, their validity flips between neighbours, and the
+    floor's light jumped from cell to cell with float rounding of y. Probes at cell centres lie
+    a quarter spacing off the floor."""
+    solved = load_solved("room", BakeSettings(resolution=64))
+    lo, hi = solved.scene.bounds()
+    grid = grid_over(lo, hi, spacing=0.5)
+    layers = grid.origin[1] + grid.spacing[1] * np.arange(grid.dims[1])
+    assert np.min(np.abs(layers)) == pytest.approx(0.25, abs=1e-3)
+    volume, _ = bake_volume(solved, grid, FAST)
+    x = np.linspace(0.3, 7.7, 75)
+    up = np.tile([0.0, 1.0, 0.0], (len(x), 1))
+    on, above = (ambient_cube_light(volume, np.stack([x, np.full_like(x, y), np.full_like(x, 3.0)], 1), up)
+                 for y in (0.0, 1e-3))
+    np.testing.assert_allclose(on, above, rtol=0.02)

@@ -46,9 +46,11 @@ def test_volume_compact_and_spacing(cornell_bake, tmp_path, capsys):
                        "--compact", "--quiet", "--bounds", "0,0,0,0.5,0.5,0.5")
     assert status == 0
     header = json.loads((tmp_path / "v" / "light_volume.json").read_text())
-    assert header["layout"] == "compact" and header["dims"] == [3, 3, 3] and header["spacing"] == [0.25] * 3
+    # probes at the centres of the 2 x 2 x 2 cells of 0.25 m that tile the box
+    assert header["layout"] == "compact" and header["dims"] == [2, 2, 2] and header["spacing"] == [0.25] * 3
+    np.testing.assert_allclose(header["origin"], [0.125] * 3)
     assert [s["name"] for s in header["sections"]] == ["color", "intensity", "inside", "validity"]
-    assert read_volume(tmp_path / "v").cube.shape == (6, 3, 3, 3, 3)
+    assert read_volume(tmp_path / "v").cube.shape == (6, 2, 2, 2, 3)
 
 
 @pytest.mark.parametrize("args, message", [

@@ -49,9 +49,12 @@ class ProbeGrid:
 def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
     """The grid covering the box [lo, hi] (each (3,), metres).
 
-    spacing: metres between probes; the grid is centred on the box and reaches its faces (it
-    overhangs by less than one spacing). dims: (NX, NY, NZ) probes from face to face (a single
-    probe along an axis sits in the middle). Exactly one of the two is given. Refuses more than
+    spacing: metres between probes, which sit at the centres of the cells that tile the box
+    (centred on it, overhanging by less than one spacing): a floor or wall a whole number of
+    spacings from a face of the box lies halfway between two layers of probes, never on one,
+    where half of a probe's rays would meet back faces and its validity would flip between
+    neighbours. dims: (NX, NY, NZ) probes from face to face (a single probe along an axis sits
+    in the middle). Exactly one of the two is given. Refuses more than
     MAX_PROBES probes, saying how many were asked for."""
     lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
     extent = hi - lo
@@ -67,7 +70,7 @@ def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
             many = f"{float(along[axis]):.3g}" if math.isfinite(along[axis]) else "more than 1e308"
             raise PatchlightError(f"--spacing {spacing}: {many} probes along {'XYZ'[axis]} alone ({float(extent[axis]):g} m) "
                                   f"is more than the limit of {MAX_PROBES:,}; use a larger --spacing")
-        counts = [math.ceil(a - 1e-9) + 1 for a in along]
+        counts = [max(1, math.ceil(a - 1e-9)) for a in along]
         step = np.full(3, float(spacing))
     else:
         counts = [int(n) for n in dims]
