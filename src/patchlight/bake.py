@@ -223,12 +223,25 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)
 
 
+BAKE_MARKER = "bake.json"          # written last: a directory is a bake only with it
+BAKE_STALE = ("pass_*.png",)       # files an older bake may hold that a new one need not write
+
+
 def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
     """Write lightmap.exr, lightmap.png, adaptive.png, scene.glb, bake.json (and the pass
     pictures) into out_dir as one set (`staged_output`: bake.json, written last, marks it
     complete); returns the summary that bake.json holds."""
+    from .imaging.io import staged_output
+
+    with staged_output(out_dir, last=BAKE_MARKER, stale=BAKE_STALE) as staging:
+        return stage_bake(result, staging, settings)
+
+
+def stage_bake(result: BakeResult, staging: Path, settings: BakeSettings) -> dict:
+    """Write a bake's files into the staging directory of a `staged_output` whose markers
+    include BAKE_MARKER and whose stale globs include BAKE_STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, staged_output, write_bytes, write_exr, write_png
+    from .imaging.io import encode_png, write_bytes, write_exr, write_png
     from .scene.gltf import save_baked_glb
 
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
@@ -239,15 +252,14 @@ def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dic
     value_range = float(max(1.0, result.lightmap.max()))
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
-    names = sorted(["lightmap.exr", "scene.glb", "bake.json", *pictures])
+    names = sorted(["lightmap.exr", "scene.glb", BAKE_MARKER, *pictures])
     sky = result.scene.sky
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
                **result.stats, "files": names}
-    with staged_output(out_dir, last="bake.json", stale=("pass_*.png",)) as staging:
-        write_exr(staging / "lightmap.exr", result.lightmap)
-        for name, pixels in pictures.items():
-            write_png(staging / name, pixels)
-        save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta)
-        write_bytes(staging / "bake.json", json.dumps(summary, indent=2, default=float).encode())
+    write_exr(staging / "lightmap.exr", result.lightmap)
+    for name, pixels in pictures.items():
+        write_png(staging / name, pixels)
+    save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta)
+    write_bytes(staging / BAKE_MARKER, json.dumps(summary, indent=2, default=float).encode())
     return summary

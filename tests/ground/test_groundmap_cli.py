@@ -177,6 +177,20 @@ def test_a_failure_after_the_bake_writes_nothing(tmp_path, capsys, monkeypatch, 
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
+def test_a_failure_while_writing_the_bake_keeps_the_older_set_whole(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "out"
+    assert main(["groundmap", "cornell", "-o", str(out), "--size", "8", "--quiet", "--texels-per-unit", "4"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("patchlight.scene.gltf.save_baked_glb", full)
+    assert main(["groundmap", "cornell", "-o", str(out), "--size", "16", "--quiet", "--texels-per-unit", "4"]) == 2
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before   # groundmap.json included
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
 def test_a_new_map_over_an_older_set_replaces_bake_and_map_together(baked, tmp_path, capsys):
     _, first = baked
     out = tmp_path / "out"

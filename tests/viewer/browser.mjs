@@ -132,13 +132,13 @@ async function lightControls(page) {
     const panel = document.getElementById('light-panel');
     return { kinds: values('light-kind'), falloffs: values('light-falloff'), lights: values('light'),
       panelShown: !panel.hidden && panel.getClientRects().length > 0,
-      fieldsShown: !document.getElementById('light-fields').hidden };
+      fieldsShown: document.getElementById('light-fields').getClientRects().length > 0 };
   });
 }
 
 async function rowsShown(page) {
   return page.evaluate(() => Object.fromEntries(['position', 'aim', 'range', 'falloff', 'cone']
-    .map((row) => [row, !document.getElementById(`light-${row}-row`).hidden])));
+    .map((row) => [row, document.getElementById(`light-${row}-row`).getClientRects().length > 0])));
 }
 
 // The lights as the page holds them and as its shader uniforms received them.

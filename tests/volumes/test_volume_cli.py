@@ -216,6 +216,9 @@ def test_volume_settings_refuse_a_seed_numpy_would_choke_on():
     from patchlight.volumes import VolumeSettings
 
     for seed in (-1, 2**32, 1.5):
-        with pytest.raises(PatchlightError, match="must be a whole number in 0..4294967295"):
+        with pytest.raises(PatchlightError, match="must lie in 0..4294967295"):
             VolumeSettings(seed=seed)
     assert VolumeSettings(seed=2**32 - 1).seed == 2**32 - 1
+    for rays in (0, 16385, 2.5):
+        with pytest.raises(PatchlightError, match="--rays .*: must lie in 1..16384"):
+            VolumeSettings(rays=rays)

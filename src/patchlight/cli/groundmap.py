@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
+from ..scene import is_builtin
 from .bake import add_scene_options, sky_from_args
 
 DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
@@ -112,7 +113,7 @@ def run(args) -> int:
             settings.sun_angle = recorded_sun_angle(args.scene)
         solved = load_solved(args.scene, sky=sky_from_args(args))
         plan = None
-    elif Path(args.scene).is_dir():
+    elif not is_builtin(args.scene) and Path(args.scene).is_dir():
         raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
     else:
         scene = load_lit_scene(args)

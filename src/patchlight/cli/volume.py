@@ -82,10 +82,7 @@ def run(args) -> int:
     from ..volumes import bake_volume, write_volume
     from ..volumes.io import DATA, HEADER
 
-    if not 1 <= args.rays <= 16384:
-        raise PatchlightError(f"--rays {args.rays}: must lie in 1..16384")
-    if not 0 <= args.seed <= MAX_SEED:
-        raise PatchlightError(f"--seed {args.seed}: must lie in 0..{MAX_SEED}")
+    settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
     check_output_dir(args.output)
     quiet = args.quiet or args.json
     if is_builtin(args.scene) or not Path(args.scene).is_dir():  # a scene to bake first:
@@ -94,7 +91,6 @@ def run(args) -> int:
         choose_grid(args, load_scene(args.scene))  # refuse a bad grid before the bake
     solved = load_solved_from_args(args, quiet)
     grid = choose_grid(args, solved.scene)
-    settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
     volume, stats = bake_volume(solved, grid, settings, quiet=quiet)
     stats["layout"] = "compact" if args.compact else "full"
     stats["files"] = [DATA, HEADER, STATS]

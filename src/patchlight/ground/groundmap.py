@@ -260,8 +260,8 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
     Which bake the manifest names (`patchlight render` and `view` show the map over it):
     bake_dir, the bake it came from (relative to out_dir, or absolute); else, with bake, a
     (BakeResult, BakeSettings) made in memory, that bake written into out_dir in the same set
-    (its files staged with the map's, moved in before them with bake.json last, groundmap.json
-    removed first); else the bake directory the solved scene was read from, if any. With none,
+    (staged with the map's files; bake.json and groundmap.json removed first and moved in
+    last, in that order); else the bake directory the solved scene was read from, if any. With none,
     the manifest names no bake and says so in its warnings: the map's files serve an engine,
     but render and view refuse the directory."""
     if bake_dir is not None and bake is not None:
@@ -276,7 +276,12 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         bake_dir = os.path.relpath(ground_map.bake_dir, out_dir.resolve())
     elif bake_dir is None:
         warnings.append(NO_BAKE)
-    with staged_output(out_dir, MANIFEST, stale=STALE_FILES) as staging:
+    from ..bake import BAKE_MARKER, BAKE_STALE, stage_bake
+
+    markers, stale = (MANIFEST,), STALE_FILES
+    if bake is not None:
+        markers, stale = (BAKE_MARKER, MANIFEST), STALE_FILES + BAKE_STALE
+    with staged_output(out_dir, markers, stale=stale) as staging:
         files = {"color": write_map_files(staging, "groundmap", to_bytes(e.color))}
         if e.shadow is not None:
             files["shadow"] = write_map_files(staging, "shadow", _grey(e.shadow))
@@ -287,11 +292,8 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         ground_map.seconds["write"] = time.perf_counter() - clock
         manifest = _manifest(ground_map, source, bake_dir, files, variants, warnings)
         write_manifest(staging, manifest)
-        if bake is not None:  # every file is staged: the commit starts with the bake's
-            from ..bake import write_bake
-
-            (out_dir / MANIFEST).unlink(missing_ok=True)  # no older map over the new bake meanwhile
-            write_bake(bake[0], out_dir, bake[1])
+        if bake is not None:
+            stage_bake(bake[0], staging, bake[1])
     return manifest
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PatchlightError
+from ..scene import is_builtin
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 from ..solved import is_bake_dir
 from .files import MANIFEST, block_compressed, is_groundmap_dir, load_ground_map, read_manifest, read_texels
@@ -113,7 +114,7 @@ def view_target(spec: str, offset_mode: str | None = None) -> tuple[str, ViewerG
     recorded one; it needs a ground map directory (a target without one has no map to offset)."""
     if offset_mode is not None and offset_mode not in OFFSET_MODES:
         raise PatchlightError(f"--offset-mode {offset_mode}: choose from {', '.join(OFFSET_MODES)}")
-    if Path(spec).is_dir() and is_groundmap_dir(spec):
+    if not is_builtin(spec) and Path(spec).is_dir() and is_groundmap_dir(spec):
         manifest = read_manifest(spec)
         shown = bake_of(spec, manifest)
         where = Path(spec) / MANIFEST

@@ -74,15 +74,17 @@ def check_output_dir(path) -> Path:
 
 
 @contextmanager
-def staged_output(out_dir, last: str, stale: tuple[str, ...] = ()) -> Iterator[Path]:
+def staged_output(out_dir, last: str | tuple[str, ...], stale: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield a staging directory for a set of files that belong together (a bake).
 
     On success they move into `out_dir` (made if need be), each rename atomic: `last` (the
-    file that marks the set complete, e.g. bake.json) is removed first and moved in last, and
-    files of an older set matching the `stale` globs are removed, so a reader never meets a
-    complete-looking mixture of two sets. If the body raises (Ctrl-C included), the staging
-    directory goes and `out_dir` is untouched.
+    file that marks the set complete, e.g. bake.json, or several such markers, e.g. a bake's
+    and a ground map's, in order) is removed first and moved in last, and files of an older
+    set matching the `stale` globs are removed, so a reader never meets a complete-looking
+    mixture of two sets. If the body raises (Ctrl-C included), the staging directory goes
+    and `out_dir` is untouched.
     """
+    markers = (last,) if isinstance(last, str) else tuple(last)
     out = check_output_dir(out_dir)
     nearest = out.parent
     while not nearest.exists():
@@ -92,15 +94,17 @@ def staged_output(out_dir, last: str, stale: tuple[str, ...] = ()) -> Iterator[P
         staging.mkdir()
         yield staging
         out.mkdir(parents=True, exist_ok=True)
-        (out / last).unlink(missing_ok=True)
+        for marker in markers:
+            (out / marker).unlink(missing_ok=True)
         for pattern in stale:
             for old in out.glob(pattern):
                 if not (staging / old.name).exists():
                     old.unlink()
         for item in sorted(staging.iterdir()):
-            if item.name != last:
+            if item.name not in markers:
                 os.replace(item, out / item.name)
-        os.replace(staging / last, out / last)
+        for marker in markers:
+            os.replace(staging / marker, out / marker)
     except OSError as exc:
         raise PatchlightError(f"{out}: cannot write ({exc.strerror or exc})") from exc
     finally:

@@ -24,6 +24,7 @@ from .terms import dot, normalize, saturate
 
 LIGHT_KINDS = ("directional", "point", "spot")  # GLSL LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
 MAX_LIGHTS = 8  # GLSL MAX_LIGHTS: the most lights one viewer draw takes
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # the shaders and the tracer hold lights in float32
 
 
 @dataclass
@@ -168,8 +169,9 @@ def _numbers(field: str, count: int, spec: str) -> list[float]:
         values = [float(x) for x in field.split(",")]
     except ValueError:
         values = []
-    if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise PatchlightError(f"--light {spec}: {field!r} should be {count} comma-separated numbers")
+    if len(values) != count or not all(abs(v) <= FLOAT32_MAX for v in values):  # NaN fails too
+        raise PatchlightError(f"--light {spec}: {field!r} should be {count} comma-separated numbers "
+                              f"(each within float32's range)")
     return values
 
 

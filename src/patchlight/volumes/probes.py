@@ -45,6 +45,7 @@ T_NEAR = 2e-4               # rays start this far along (x the scene's size): a 
                             # must not meet that face at t = 0 (Embree starts rays at t = 0)
 OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
 RAYS_PER_CHUNK = 1 << 20    # rays traced per batch: bounds memory at ~100 MB
+MAX_RAYS = 16384            # rays per axis
 GOLDEN = 0.6180339887498949
 MAX_SEED = 2**32 - 1        # numpy's seed range; (row + seed) x GOLDEN keeps its precision below it
 
@@ -58,8 +59,10 @@ class VolumeSettings:
     seed: int = 1
 
     def __post_init__(self):
+        if not (isinstance(self.rays, (int, np.integer)) and 1 <= self.rays <= MAX_RAYS):
+            raise PatchlightError(f"--rays {self.rays!r}: must lie in 1..{MAX_RAYS}")
         if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed <= MAX_SEED):
-            raise PatchlightError(f"volume seed {self.seed!r}: must be a whole number in 0..{MAX_SEED}")
+            raise PatchlightError(f"--seed {self.seed!r}: must lie in 0..{MAX_SEED}")
 
     def to_json(self) -> dict:
         return asdict(self)

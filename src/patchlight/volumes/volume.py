@@ -50,6 +50,8 @@ class LightVolume:
         if self.cube.shape != (6, *shape, 3) or self.inside.shape != shape or self.validity.shape != shape:
             raise ValueError(f"LightVolume: cube {self.cube.shape} / inside {self.inside.shape} / validity "
                              f"{self.validity.shape} do not match the grid's {shape}")
+        if not np.all((self.validity >= 0) & (self.validity <= 1)):
+            raise ValueError("LightVolume: validity must lie in 0..1 (what read_volume accepts)")
 
 
 def compact(cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -348,7 +348,7 @@ function bindLights(viewer, change) {
   for (const id of ['light-azimuth', 'light-elevation']) $(id).oninput = aim;
   $('light-intensity').oninput = strength;
   $('light-color').onchange = strength;
-  $('light-range').oninput = reach;
+  $('light-range').onchange = reach;  // on commit: a half-typed "0" would take the default range
   $('light-falloff').onchange = reach;
   for (const id of ['light-inner', 'light-outer']) $(id).oninput = cone;
   $('light-add').onclick = change(() => {
