@@ -4,7 +4,8 @@ Prints, per scene: patches, computed patches, rays traced, rays per second, seco
 stage, and the ratio of the whole bake's time to the time embreex alone needs to trace the
 same rays: every ray the bake cast (closest-hit and occlusion) is recorded as it is cast and
 re-traced afterwards with bare `EmbreeScene.run` calls on a thread per core. The JIT is
-warmed up first, untimed. The recording costs memory (about 50 bytes a ray), not bake time.
+warmed up first, untimed. The recording costs memory (about 50 bytes a ray) and, as its
+copies are made while the bake runs, some of the bake's time: the ratio errs on the high side.
 Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N] [--gather G] [--scenes ...]`.
 """
 from __future__ import annotations

@@ -19,13 +19,15 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.gather import Gatherer
-from .radiosity.memory import check_bake_memory, form_factor_budget
+from .radiosity.memory import available_memory, check_bake_memory, form_factor_budget
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
 
 FLOAT32_REACH = 1e-5        # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
+PROBE_BACK_FRACTION = 0.7   # ... and one whose 16 probe rays are 12 or more on back faces needs
+                            # no gather to tell (the gather decides the borderline rest)
 DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
 REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
 REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
@@ -102,7 +104,7 @@ def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, sett
 
 def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
     """Gather patches `rows`, but for those a probe or their own gather finds inside geometry."""
-    inside = ff.probe_inside(rows, INSIDE_BACK_FRACTION)
+    inside = ff.probe_inside(rows, PROBE_BACK_FRACTION)
     status[rows[inside]] = adaptive.INSIDE
     advance(int(inside.sum()))
     rows = rows[~inside]
@@ -147,15 +149,16 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     settings = settings or BakeSettings()
     settings.validate()
     _check_scene(scene)
+    available = available_memory()  # read once, before the bake holds any of it
     if settings.resolution is not None:
-        check_bake_memory(settings.resolution, settings.resolution, settings.texel_samples)
+        check_bake_memory(settings.resolution, settings.resolution, settings.texel_samples, available)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding)
-        check_bake_memory(width, height, settings.texel_samples)
+        check_bake_memory(width, height, settings.texel_samples, available)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
@@ -174,7 +177,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             from .radiosity.cluster import RayCluster
 
             gatherer.cluster = RayCluster(settings.ray)
-        budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples)
+        budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)
@@ -234,12 +237,12 @@ def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dic
     from .imaging.io import staged_output
 
     with staged_output(out_dir, last=BAKE_MARKER, stale=BAKE_STALE) as staging:
-        return stage_bake(result, staging, settings)
+        return stage_bake(result, staging, out_dir, settings)
 
 
-def stage_bake(result: BakeResult, staging: Path, settings: BakeSettings) -> dict:
-    """Write a bake's files into the staging directory of a `staged_output` whose markers
-    include BAKE_MARKER and whose stale globs include BAKE_STALE; returns the summary."""
+def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeSettings) -> dict:
+    """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
+    markers include BAKE_MARKER and whose stale globs include BAKE_STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
     from .imaging.io import encode_png, write_bytes, write_exr, write_png
     from .scene.gltf import save_baked_glb
@@ -260,6 +263,7 @@ def stage_bake(result: BakeResult, staging: Path, settings: BakeSettings) -> dic
     write_exr(staging / "lightmap.exr", result.lightmap)
     for name, pixels in pictures.items():
         write_png(staging / name, pixels)
-    save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta)
+    save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,
+                   folder=out_dir)
     write_bytes(staging / BAKE_MARKER, json.dumps(summary, indent=2, default=float).encode())
     return summary

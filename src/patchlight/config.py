@@ -9,7 +9,7 @@
 | hemicube_size     | pixels        | 32             | front face N x N, even (8..512; 32-128)                         |
 | rays              | rays / patch  | 512            | stratified rays, rounded down to an a x b grid (16..16384; 512) |
 | passes            | count         | 100            | upper bound on passes (1 = direct + sky only)                   |
-| tolerance         | ratio         | 1e-3           | stop when the largest relative change of a pass is below        |
+| tolerance         | ratio         | 1e-3           | stop when the largest relative change still to come is below    |
 | adaptive          | bool          | True           | compute every 4th texel, refine where neighbours differ         |
 | first_accuracy    | ratio         | 0.5            | the sampler's first run, for the first passes (0..1; 0.5)       |
 | accuracy          | ratio         | 0.98           | final run: threshold = accuracy ** spacing (0..1; 0.98)         |

@@ -171,9 +171,7 @@ def test_absurd_resolution_is_refused(tmp_path, capsys):
 
 
 def test_lightmap_too_large_for_memory_is_refused_with_the_estimate(tmp_path, capsys, monkeypatch):
-    import patchlight.radiosity.memory as memory
-
-    monkeypatch.setattr(memory, "available_memory", lambda: 256 << 20)
+    monkeypatch.setattr("patchlight.bake.available_memory", lambda: 256 << 20)
     status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), "--resolution", "2048", "--quiet")
     assert status == 2 and "GiB" in err and "--resolution" in err
     assert not (tmp_path / "out").exists()
@@ -269,3 +267,19 @@ def test_out_of_range_settings_are_refused_in_one_line(tmp_path, capsys, argv, w
     status, _, err = run(capsys, "bake", "cornell", "-o", str(tmp_path / "out"), *argv)
     assert status == 2 and words in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_an_image_sky_is_found_again_from_a_scene_glb_written_into_new_folders(tmp_path, capsys):
+    from patchlight.imaging.io import write_exr
+
+    (tmp_path / "sky").mkdir()
+    write_exr(tmp_path / "sky" / "day.exr", np.full((8, 16, 3), [0.5, 1.0, 2.0], np.float32))
+    dark = lit_quad()
+    dark.lights = []
+    save_baked_glb(dark, tmp_path / "in.glb")
+    out = tmp_path / "new" / "deep" / "out"   # staged beside the nearest folder that exists
+    status, _, _ = run(capsys, "bake", str(tmp_path / "in.glb"), "-o", str(out), "--resolution", "16",
+                       "--sky-image", str(tmp_path / "sky" / "day.exr"), "--quiet")
+    assert status == 0
+    sky = load_gltf(out / "scene.glb").sky
+    assert sky.kind == "image" and sky.image.shape == (8, 16, 3)

@@ -293,7 +293,7 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         manifest = _manifest(ground_map, source, bake_dir, files, variants, warnings)
         write_manifest(staging, manifest)
         if bake is not None:
-            stage_bake(bake[0], staging, bake[1])
+            stage_bake(bake[0], staging, out_dir, bake[1])
     return manifest
 
 

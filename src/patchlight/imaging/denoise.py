@@ -59,18 +59,16 @@ def _cut_out(image: np.ndarray, charts: np.ndarray) -> list[tuple]:
 
 
 def _pack(pieces: list[np.ndarray]) -> tuple[np.ndarray, list[tuple[int, int]]]:
-    """Shelf-pack pieces (h, w, 3), tallest first, into one canvas about as wide as the
-    widest piece or the square root of their total area; returns it and each piece's corner."""
-    width = max(max(p.shape[1] for p in pieces), int(np.sqrt(sum(p.shape[0] * p.shape[1] for p in pieces))))
-    places = [None] * len(pieces)
-    x = y = shelf = 0
-    for i in sorted(range(len(pieces)), key=lambda i: -pieces[i].shape[0]):
-        h, w = pieces[i].shape[:2]
-        if x + w > width:
-            x, y, shelf = 0, y + shelf, 0
-        places[i] = (y, x)
-        x, shelf = x + w, max(shelf, h)
-    canvas = np.zeros((y + shelf, width, 3), np.float32)
-    for piece, (py, px) in zip(pieces, places):
+    """Shelf-pack pieces (h, w, 3), tallest first, side by side (the atlas packer's shelves),
+    into one canvas about as wide as the widest piece or the square root of their total area;
+    returns it and each piece's corner (y, x)."""
+    from ..atlas._kernels import shelf_pack
+
+    h = np.array([p.shape[0] for p in pieces], np.int64)
+    w = np.array([p.shape[1] for p in pieces], np.int64)
+    width = max(int(w.max()), int(np.sqrt(float((h * w).sum()))))
+    x, y, used_w, used_h = shelf_pack(w, h, np.argsort(-h, kind="stable"), 0, width)
+    canvas = np.zeros((used_h, used_w, 3), np.float32)
+    for piece, py, px in zip(pieces, y, x):
         canvas[py:py + piece.shape[0], px:px + piece.shape[1]] = piece
-    return canvas, places
+    return canvas, list(zip(y.tolist(), x.tolist()))

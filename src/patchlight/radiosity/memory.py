@@ -3,10 +3,11 @@
 A W x H lightmap costs about BYTES_PER_TEXEL per texel of the image beside the form-factor
 matrix F (patch arrays, the points spread over each texel for direct light, light vectors,
 the sampler's state, images), whether or not texels are covered: measured as peak resident
-memory over the interpreter's own on the built-in room at 1024 x 1024 (`bench/` notes the
-figures). F gets what is left, up to --max-memory, and is dropped for re-gathering once it
-would not fit (solve.FormFactors). The whole is checked before any work, so a lightmap too
-large is refused with the estimate instead of being killed by the kernel halfway.
+memory over the interpreter's own, F dropped (room 1024: 607; room 512: 542; cornell 512:
+687 bytes per texel at 2 x 2 texel samples; room 512 at 4 x 4: 1433, so about 74 bytes per
+further sample). F gets what is left, up to --max-memory, and is dropped for re-gathering
+once it would not fit (solve.FormFactors). The whole is checked before any work, so a
+lightmap too large is refused with the estimate instead of being killed by the kernel halfway.
 """
 from __future__ import annotations
 
@@ -15,8 +16,8 @@ import os
 
 from ..errors import PatchlightError
 
-BYTES_PER_TEXEL = 640          # measured 607 at 2 x 2 texel samples (room, 1024 x 1024, F not kept)
-BYTES_PER_TEXEL_SAMPLE = 48    # each further direct-light point per texel: f64 position and origin
+BYTES_PER_TEXEL = 720          # at 2 x 2 texel samples: measured 542..687 (module docstring)
+BYTES_PER_TEXEL_SAMPLE = 80    # each further direct-light point per texel: measured about 74
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
 

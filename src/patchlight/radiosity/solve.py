@@ -123,18 +123,20 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
 
 
 def change_to_come(changes: list[float]) -> float:
-    """How much I may still change in all passes to come, from the changes so far: the passes
-    contract by r = last / second last, so the rest is the geometric series last r / (1 - r).
-    Infinite while the changes do not shrink (the first passes, light still spreading). A
-    bright closed scene (rho 0.9, r ~ 0.9) thus runs until its last change is tolerance / 9,
-    where the plain last change would stop it ten times too early."""
-    last = changes[-1]
-    if last == 0.0:
+    """How much I may still change in all passes to come, from the changes so far (the first
+    is a placeholder, 1: nothing to compare with). The passes contract by r, estimated as the
+    larger of the last two ratios of real changes (one ratio alone is fooled by a jump, e.g.
+    after the sampler marks texels inside); the rest is the geometric series last r / (1 - r).
+    Infinite until three real changes shrink. A bright closed scene (rho 0.9, r ~ 0.9) thus
+    runs until its last change is tolerance / 9, where the plain last change would stop it
+    ten times too early."""
+    real = changes[1:]
+    if real and real[-1] == 0.0:
         return 0.0
-    if len(changes) < 2 or last >= changes[-2]:
+    if len(real) < 3:
         return float("inf")
-    r = last / changes[-2]
-    return last * r / (1.0 - r)
+    r = max(real[-1] / real[-2], real[-2] / real[-3])
+    return float("inf") if r >= 1.0 else real[-1] * r / (1.0 - r)
 
 
 def relative_change(current: np.ndarray, previous: np.ndarray) -> float:

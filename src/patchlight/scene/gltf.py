@@ -780,28 +780,34 @@ def _rgba(image: np.ndarray) -> np.ndarray:
 # =========================================================================== export
 
 def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = None,
-                   lightmap_meta: dict | None = None, unlit: bool = False) -> Path:
+                   lightmap_meta: dict | None = None, unlit: bool = False, folder=None) -> Path:
     """Write `scene` (and its RGBM lightmap PNG, if given) as one .glb, atomically; returns the path.
 
     lightmap_meta: JSON-able dict stored with the lightmap; it must hold "rgbmRange" (> 0, the
     value an RGBM texel with rgb = a = 1 decodes to).  Layout: see the module docstring.
     unlit: mark every material KHR_materials_unlit (used, not required): the light is baked
-    into COLOR_0, so viewers must not light it again.
-    A scene loaded from a glTF file is written as that file's document plus TEXCOORD_1
-    (`_SourceWriter`); a built-in scene, or one whose provenance no longer describes it, as
-    the flattened world-space copy (`_GlbWriter`).
+    into COLOR_0, so viewers must not light it again. folder: the directory the file will end
+    up in, when it is written elsewhere first (a staging directory): an image sky's path is
+    made relative to it. A scene loaded from a glTF file is written as that file's document
+    plus TEXCOORD_1 (`_SourceWriter`); a built-in scene, or one whose provenance no longer
+    describes it (or that the writer cannot map back), as the flattened world-space copy
+    (`_GlbWriter`), with a warning.
     """
     if lightmap_rgbm_png_bytes is not None:
         if scene.uv1 is None:
             raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
         _lightmap_description(lightmap_rgbm_png_bytes, lightmap_meta or {})  # refuse bad input before any work
-    source = _SourceWriter.open(scene)
+    folder = Path(path).parent if folder is None else Path(folder)
+    source, glb = _SourceWriter.open(scene), None
     if isinstance(source, _SourceWriter):
-        glb = source.write(Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
-    else:
+        try:
+            glb = source.write(folder, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
+        except (PatchlightError, ValueError) as exc:
+            source = f"its file could not be rewritten ({exc})"
+    if glb is None:
         if source is not None:
             warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
-        glb = _flattened_glb(scene, Path(path).parent, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
+        glb = _flattened_glb(scene, folder, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
     with atomic_path(path) as tmp:
         tmp.write_bytes(glb)
     return Path(path)

@@ -1,0 +1,26 @@
+"""The stop rule of the passes: the change still to come, from the changes so far."""
+import math
+
+import pytest
+
+from patchlight.radiosity.solve import change_to_come
+
+
+def test_a_geometric_tail_is_summed():
+    # real changes 0.5, 0.25, 0.125 after the placeholder: r = 0.5, the rest 0.125 x 0.5 / 0.5
+    assert change_to_come([1.0, 0.5, 0.25, 0.125]) == pytest.approx(0.125)
+    # r = 0.9: nine times the last change is still to come
+    assert change_to_come([1.0, 0.1, 0.09, 0.081]) == pytest.approx(0.081 * 9)
+
+
+@pytest.mark.parametrize("changes", [
+    [1.0], [1.0, 0.2], [1.0, 3.65, 0.042],   # too few real changes to trust a ratio
+    [1.0, 0.1, 3.0, 0.03],                   # a jump (texels marked inside): no contraction yet
+    [1.0, 1.0, 1.0, 1.0],                    # light still spreading
+])
+def test_no_stop_without_a_contraction_seen_twice(changes):
+    assert math.isinf(change_to_come(changes))
+
+
+def test_an_exact_fixed_point_stops_at_once():
+    assert change_to_come([1.0, 0.0]) == 0.0
