@@ -167,14 +167,13 @@ class Renderer:
                                  materials.reflectivity[material])
         return lighting, pair_of_corner
 
-    def shade_rays(self, settings: ShadingSettings, origins: np.ndarray, directions: np.ndarray,
-                   where: str, remedy: str = "") -> tuple[np.ndarray, np.ndarray]:
-        """Radiance (N, 3) and covered (N,) along rays that all start at origins[0]; a
-        PatchlightError naming `where` (and `remedy`) when that point is inside geometry."""
+    def shade_rays(self, settings: ShadingSettings, origins: np.ndarray,
+                   directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Radiance (N, 3) and covered (N,) along rays that all start at origins[0], a point
+        the caller has found outside geometry."""
         settings.validate()
         eye = np.asarray(origins[0], np.float32)
         self.require_inputs(settings)
-        self.require_outside(eye, where, remedy)
         env = self.environment(settings) if settings.model in ENV_MODELS else None
         materials = MaterialTable.from_materials(self.target.scene.materials, settings.reflectivity)
         hits = self.trace(origins, directions)
@@ -188,9 +187,9 @@ class Renderer:
 
     def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int) -> RenderResult:
         """Linear radiance seen by `camera` on a width x height image."""
-        origins, directions = camera.rays(width, height)
         where = "the camera at ({:g}, {:g}, {:g})".format(*camera.eye)
-        radiance, covered = self.shade_rays(settings, origins, directions, where, " (choose another with --camera)")
+        self.require_outside(camera.eye, where, " (choose another with --camera)")
+        radiance, covered = self.shade_rays(settings, *camera.rays(width, height))
         return RenderResult(radiance.reshape(height, width, 3), covered.reshape(height, width))
 
     def require_inputs(self, settings: ShadingSettings) -> None:
@@ -253,9 +252,7 @@ class Renderer:
         inner = ShadingSettings(model="lightmap" if self.target.lightmap is not None else "lambert",
                                 lights=settings.lights, ambient=settings.ambient, sky=settings.sky,
                                 ground=settings.ground)
-        where = "the environment map's centre ({:g}, {:g}, {:g})".format(*point)
-        radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs, where,
-                                      "; choose one with --envmap-from X,Y,Z or reflect a sky (--sky R,G,B)")
+        radiance, _ = self.shade_rays(inner, np.broadcast_to(point, dirs.shape), dirs)
         alpha = light_highlight(dirs, settings.lights)
         return np.concatenate([radiance, alpha[:, None]], axis=1).reshape(6, size, size, 4).astype(np.float32)
 
