@@ -198,6 +198,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                 incident = denoised_incident(patches, direct, solution.gathered, status)
             lightmap = fill_lightmap(patches, incident, status)
     counts = np.bincount(status, minlength=4)
+    to_come = change_to_come(solution.changes)
     stats = {
         "resolution": [width, height],
         "patches": len(patches),
@@ -216,8 +217,8 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
-        "change_to_come": change_to_come(solution.changes),
-        "converged": change_to_come(solution.changes) < settings.tolerance,
+        "change_to_come": to_come,
+        "converged": to_come < settings.tolerance,
         "seconds_per_stage": dict(progress.seconds),
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,
