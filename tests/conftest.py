@@ -1,5 +1,5 @@
-"""Shared by every test directory: tests/render (the procedural scenes, render_scenes.py) and
-tests/viewer (the browser driver's support, browser_support.py) on the import path, and the
+"""Shared by every test directory: tests/render (the procedural scenes, render_scenes.py),
+tests/scene (the glTF builder, gltf_builder.py) and tests/viewer (the browser driver's support, browser_support.py) on the import path, and the
 `browser` fixture of the WebGL tests."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 TESTS = Path(__file__).resolve().parent
-for folder in ("render", "viewer"):
+for folder in ("render", "viewer", "scene"):
     if str(TESTS / folder) not in sys.path:
         sys.path.insert(0, str(TESTS / folder))
 

@@ -229,6 +229,18 @@ def clamped_barycentrics(px, py, ax, ay, bx, by, cx, cy):
 
 
 @njit(cache=True)
+def texel_centre_barycentrics(tex, triangle, texel_y, texel_x):
+    """(N, 3) clamped barycentrics of each texel centre on its triangle (tex (T, 3, 2) texel units)."""
+    out = np.empty((triangle.shape[0], 3))
+    for i in range(triangle.shape[0]):
+        t = triangle[i]
+        out[i, 0], out[i, 1], out[i, 2] = clamped_barycentrics(
+            texel_x[i] + 0.5, texel_y[i] + 0.5, tex[t, 0, 0], tex[t, 0, 1], tex[t, 1, 0], tex[t, 1, 1],
+            tex[t, 2, 0], tex[t, 2, 1])
+    return out
+
+
+@njit(cache=True)
 def affine_barycentrics(px, py, ax, ay, bx, by, cx, cy):
     """Barycentrics of p extended affinely beyond triangle abc (may be negative); for a
     zero-area triangle, where no affine map exists, those of the nearest point."""

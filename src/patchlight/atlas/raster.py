@@ -42,11 +42,9 @@ def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarra
     if scene.n_triangles and not (0 <= scene.material_ids.min() and scene.material_ids.max() < len(scene.materials)):
         raise PatchlightError(f"{where}: a triangle's material id points outside the material list")
     width, height = int(width), int(height)
-    tex = scene.uv1[scene.indices].astype(np.float64) * np.array([width, height], np.float64)
+    tex = _texel_corners(scene.uv1, scene.indices, width, height)
     normal, area = face_normals(scene.positions, scene.indices)
-    owner = _kernels.rasterize_owners(tex, area > 0, width, height)
-    texel_y, texel_x = np.nonzero(owner >= 0)
-    triangle = owner[texel_y, texel_x]
+    texel_y, texel_x, triangle = _owned_texels(tex, area, width, height)
     chart_per_triangle, _ = uv_charts(scene.uv1, scene.indices)
     position, patch_normal, rho, emission = _attributes(scene, tex, texel_y, texel_x, triangle, normal)
     index = np.full((height, width), -1, np.int32)
@@ -56,6 +54,30 @@ def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarra
                       position=position, normal=patch_normal, triangle=triangle.astype(np.int32), rho=rho,
                       emission=emission, chart=chart_per_triangle[triangle], size=size, index=index)
     return patches, chart_per_triangle
+
+
+def _texel_corners(uv, indices, width, height) -> np.ndarray:
+    """(T, 3, 2) f64 triangle corners in texel units of a width x height map over `uv`."""
+    return np.asarray(uv, np.float64)[indices] * np.array([width, height], np.float64)
+
+
+def _owned_texels(tex, area, width, height):
+    """texel_y, texel_x, owner triangle (N,) of every texel a triangle of positive area touches."""
+    owner = _kernels.rasterize_owners(tex, area > 0, width, height)
+    texel_y, texel_x = np.nonzero(owner >= 0)
+    return texel_y, texel_x, owner[texel_y, texel_x]
+
+
+def texel_surface_points(positions, indices, uv, width, height):
+    """Where each texel of a width x height map over `uv` (V, 2) lies on the surface: the
+    conservative rasterisation above, the texel centre clamped onto its owner triangle.
+    Returns texel_y, texel_x, triangle (N,) and barycentrics (N, 3) f64 of the triangle's corners."""
+    tex = _texel_corners(uv, indices, width, height)
+    _, area = face_normals(positions, indices)
+    texel_y, texel_x, triangle = _owned_texels(tex, area, width, height)
+    bary = _kernels.texel_centre_barycentrics(tex, triangle.astype(np.int64), texel_y.astype(np.float64),
+                                              texel_x.astype(np.float64))
+    return texel_y, texel_x, triangle, bary
 
 
 def _attributes(scene, tex, texel_y, texel_x, triangle, face_normal):

@@ -11,7 +11,7 @@ import sys
 
 from ..errors import PatchlightError
 
-SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake")
+SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
 
 
 class _Parser(argparse.ArgumentParser):

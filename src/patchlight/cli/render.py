@@ -7,6 +7,8 @@ import argparse
 import time
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import PatchlightError
 from ..config import FALLOFFS
 from ..shading.models import MODELS
@@ -45,7 +47,9 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
                    help="ambient incident light (default: from the sky, else 0.05 grey)")
     p.add_argument("--reflectivity", type=float, metavar="K", help="envmap reflectivity of every material (0..1)")
     p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
-    p.add_argument("--normal-map", action="store_true", help="tangent-space normal maps, colour alpha as gloss")
+    p.add_argument("--normal-map", nargs="?", const=True, default=False, type=Path, metavar="PNG",
+                   help="tangent-space normal maps, colour alpha as gloss: the materials' own, or this image "
+                        "(e.g. from `patchlight normalmap`) for every material")
     p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
     p.add_argument("--volume", type=Path, metavar="DIR",
                    help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
@@ -90,20 +94,32 @@ def load_target_and_settings(args, model: str | None):
     if sky is not None:
         target.scene.sky = sky
     lights = None if args.light is None else [parse_light_spec(spec) for spec in args.light]
+    if isinstance(args.normal_map, Path):
+        use_normal_map(target, args.normal_map)
     if args.normal_map and all(m.normal_texture is None for m in target.scene.materials):
         raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
     if model is None:
         model = "lightmap" if target.lightmap is not None else "lambert"
     settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
-                               per_vertex=args.per_vertex, normal_map=args.normal_map,
+                               per_vertex=args.per_vertex, normal_map=bool(args.normal_map),
                                lightmap_specular=args.specular, reflectivity=args.reflectivity,
                                ground_map=ground_map, volume=find_volume(args.volume, target.bake_dir),
                                ambient_cube_naive=args.naive_weights)
     return target, settings
 
 
+def use_normal_map(target, path: Path) -> None:
+    """Give every material of `target` the normal map image at `path` (RGB, stored values)."""
+    from ..imaging.io import read_image
+
+    image = read_image(path)
+    if image.shape[2] < 3:
+        raise PatchlightError(f"--normal-map {path}: a normal map needs RGB channels, the image has {image.shape[2]}")
+    for material in target.scene.materials:
+        material.normal_texture = np.ascontiguousarray(image[..., :3])
+
+
 def parse_point(text: str, where: str):
-    import numpy as np
 
     try:
         point = np.array([float(v) for v in text.split(",")])
