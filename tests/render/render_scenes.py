@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from patchlight.shading.directional import DirectionalLightmap
 from patchlight.render.target import Target
 from patchlight.scene.model import Light, Material, Scene
 from patchlight.scene.sky import Sky
@@ -168,8 +169,24 @@ def showcase_scene(lat=24, lon=48) -> Scene:
     return scene
 
 
-def showcase_target(lat=24, lon=48) -> Target:
-    return Target.from_scene(showcase_scene(lat, lon), lightmap_image())
+def directional_maps(mode: str, width=64, height=32) -> DirectionalLightmap:
+    """Smooth directional data beside lightmap_image(): light mostly from a direction that
+    turns across the map, L1 up to 0.8 of its largest length (sh), share 0.3..0.9 (dominant)."""
+    y, x = np.mgrid[0:height, 0:width] + 0.5
+    u, v = x / width, y / height
+    d = np.stack([np.sin(4 * u), 0.6 + 0.4 * np.cos(3 * v), np.cos(5 * u * v)], -1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    if mode == "dominant":
+        return DirectionalLightmap(mode, (d * (0.3 + 0.6 * u)[..., None])[None])
+    c0 = lightmap_image(width, height) * 3.0
+    l1 = [0.8 * np.sqrt(3) * c0 * d[..., k:k + 1] for k in range(3)]
+    return DirectionalLightmap(mode, np.stack([c0, *l1]))
+
+
+def showcase_target(lat=24, lon=48, directional: str = "sh") -> Target:
+    target = Target.from_scene(showcase_scene(lat, lon), lightmap_image())
+    target.directional = directional_maps(directional)
+    return target
 
 
 SHOWCASE_CAMERA = ((3.2, 2.0, 4.2), (0.2, -0.3, 0.0), 40.0)

@@ -169,6 +169,8 @@ def test_the_documented_minimal_spot_spec_renders(scene_file, tmp_path):
     (["--light", "lamp:0,0,0:1,1,1:1"], "unknown light kind"),
     (["--light", "point:0,1,0:1,1,1:5", "--falloff", "range"], "needs a range"),
     (["--model", "lightmap"], "lightmap"),
+    (["--model", "lightmap-directional"], "lightmap-directional"),
+    (["--model", "lightmap-directional", "--per-vertex"], "per pixel"),
     (["--camera", "0,0,0", "0,0,-1", "45"], "inside geometry"),
     (["--camera", "0,0,5", "0,0,0"], "expected 3 arguments"),
     (["--size", "0x10"], "1.."),

@@ -150,6 +150,8 @@ def test_every_model_and_option_renders_the_showcase():
     from patchlight.shading import MODELS
     for model in MODELS:
         for options in ({}, {"per_vertex": True}, {"normal_map": True}, {"falloff": "range"}):
+            if model == "lightmap-directional" and options.get("per_vertex"):
+                continue  # refused: tests/render/test_cli_render.py
             result = renderer.render(target_settings(target, model=model, **options), camera, 24, 24)
             assert np.isfinite(result.radiance).all() and result.radiance[result.covered].max() > 0
 

@@ -16,7 +16,8 @@ FUNCTION = re.compile(r"^(?:float|vec[234]|void|Incident|Lighting)\s+(\w+)\s*\("
 DEFINE = re.compile(r"^#define\s+(\w+)\s+(\S+)", re.M)
 INCLUDE = re.compile(r'^#include\s+"([\w.]+)"', re.M)
 SOURCES = ("hlsl-lighting-models.txt", "lighting-models-for-games.txt", "hemisphere-lighting-with-radiosity-maps.txt",
-           "KHR_lights_punctual", "DESIGN.md", "IEC 61966", "patchlight.imaging")
+           "KHR_lights_punctual", "DESIGN.md", "IEC 61966", "patchlight.imaging",
+           "patchlight.shading.directional")
 
 
 def chunks() -> dict[str, str]:

@@ -64,6 +64,8 @@ def case_list() -> list[dict]:
         if model == "lightmap":
             variants += [{"lightmap_specular": True}, {"lightmap_specular": True, "per_vertex": True},
                          {"lightmap_specular": True, "normal_map": True}]
+        if model == "lightmap-directional":  # per pixel only
+            variants = [{}, {"normal_map": True}, {"lightmap_specular": True, "normal_map": True}]
         for options in variants:
             name = "-".join([model, *(k if v is True else str(v) for k, v in options.items())])
             cases.append({"name": name, "model": model, **options})
@@ -125,7 +127,10 @@ def test_webgl_equals_cpu(webgl, showcase, case):
                                                 ("lambert", "lambert-normal_map"), ("lambert", "lambert-range"),
                                                 ("phong", "self-shadow"), ("lightmap", "lightmap-lightmap_specular"),
                                                 ("lambert", "envmap"), ("lambert", "hemisphere"),
-                                                ("lambert", "lambert-pairs"), ("lambert-pairs", "lambert-eight-range")])
+                                                ("lambert", "lambert-pairs"), ("lambert-pairs", "lambert-eight-range"),
+                                                ("lightmap-normal_map", "lightmap-directional-normal_map"),
+                                                ("lightmap-directional-normal_map",
+                                                 "lightmap-directional-lightmap_specular-normal_map")])
 def test_the_comparison_tells_every_option_apart(webgl, showcase, gpu_case, cpu_case):
     """The thresholds are tight enough to fail when the two sides shade differently."""
     case = next(c for c in CASES if c["name"] == cpu_case)
@@ -206,3 +211,19 @@ def test_the_environment_cube_is_filtered_across_its_seams_as_webgl_does(browser
     to_clamped = np.abs(gpu[..., :3].astype(int) - clamped)[seams]
     # ... and there WebGL agrees with the seamless filter (measured: 2/255 against 15/255)
     assert at_seams.mean() < 4.0 and at_seams.mean() < 0.25 * to_clamped.mean()
+
+
+def test_dominant_direction_lightmaps_match_too(browser, tmp_path):
+    """The lightmap-directional model with a dominant-direction map (the showcase has L1 SH)."""
+    target = showcase_target(directional="dominant")
+    renderer = Renderer(target)
+    cases = [{"name": "dominant", "model": "lightmap-directional", "normal_map": True},
+             {"name": "dominant-specular", "model": "lightmap-directional", "normal_map": True,
+              "lightmap_specular": True}]
+    specs = [dict(c, camera=CAMERA, width=SIZE, height=SIZE, exposure=EXPOSURE) for c in cases]
+    with make_server(target, target_settings(target), exposure=EXPOSURE) as server:
+        pictures, _ = browser.cases(server.url, specs, tmp_path)
+    for case in cases:
+        mean, p99 = difference(pictures[case["name"]], *cpu_picture((target, renderer), case))
+        print(f"{case['name']}: mean {mean:.3f}/255, p99 {p99:.1f}/255")
+        assert mean < 1.0 and p99 < 4.0

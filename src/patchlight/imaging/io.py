@@ -149,15 +149,25 @@ def write_exr(path, rgb: np.ndarray, metadata: dict[str, str] | None = None) -> 
     The header records the orientation under `patchlight.orientation`; `metadata` adds
     more string attributes.
     """
-    pixels = np.ascontiguousarray(rgb, np.float32)
-    if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
-        raise ValueError(f"write_exr wants an (H, W, 3) image, got shape {pixels.shape}")
+    write_exr_layers(path, {"": rgb}, metadata)
+
+
+def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> None:
+    """Write (H, W, 3) linear RGB layers as one float32 EXR: layer "" as R, G, B, layer "L0" as
+    L0.R, L0.G, L0.B (OpenEXR's layer naming); otherwise as `write_exr`."""
+    channels = {}
+    for name, rgb in layers.items():
+        pixels = np.asarray(rgb, np.float32)
+        if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
+            raise ValueError(f"write_exr wants (H, W, 3) images, got shape {pixels.shape}")
+        for c, letter in enumerate("RGB"):
+            channels[f"{name}.{letter}" if name else letter] = np.ascontiguousarray(pixels[..., c])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ORIENTATION_KEY: ORIENTATION}
     header.update({str(k): str(v) for k, v in (metadata or {}).items()})
     with atomic_path(path) as tmp:
         try:
-            OpenEXR.File(header, {"RGB": pixels}).write(str(tmp))
+            OpenEXR.File(header, channels).write(str(tmp))
         except RuntimeError as exc:
             raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
 
@@ -176,6 +186,23 @@ def read_exr(path) -> np.ndarray:
     else:
         raise PatchlightError(f"{path}: EXR has no R, G, B or Y channels (has {sorted(channels)})")
     return np.stack([channels[n].pixels.astype(np.float32) for n in names], axis=-1)
+
+
+def read_exr_layers(path, names) -> list[np.ndarray]:
+    """(H, W, 3) float32 of each named layer of an EXR (`write_exr_layers`; "" = R, G, B)."""
+    path = require_file(path)
+    try:
+        channels = OpenEXR.File(str(path), separate_channels=True).channels()
+    except RuntimeError as exc:
+        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+    layers = []
+    for name in names:
+        keys = [f"{name}.{c}" if name else c for c in "RGB"]
+        missing = [k for k in keys if k not in channels]
+        if missing:
+            raise PatchlightError(f"{path}: EXR lacks the channels {', '.join(missing)}")
+        layers.append(np.stack([channels[k].pixels.astype(np.float32) for k in keys], axis=-1))
+    return layers
 
 
 # --------------------------------------------------------------------------- PNG / JPEG

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import PatchlightError
 from ..rays.tracer import Hits, Tracer
 from ..shading.environment import ENV_SIZE, environment_from_sky, light_highlight
-from ..shading.models import Fragments, Lighting, MaterialTable, ShadingSettings, light_surface, shade_fragments
+from ..shading.models import LIGHTMAP_MODELS, Fragments, Lighting, MaterialTable, ShadingSettings, light_surface, shade_fragments
 from ..shading.surface import interpolate
 from ..shading.terms import normalize
 from ..shading.textures import cube_directions
@@ -140,7 +140,7 @@ class Renderer:
                           normal=interpolate(s.normals, corners, bary),
                           tangent=interpolate(s.tangents, corners, bary) if settings.normal_map else None,
                           uv0=interpolate(s.uv0, corners, bary),
-                          uv1=interpolate(s.uv1, corners, bary) if settings.model == "lightmap" else None,
+                          uv1=interpolate(s.uv1, corners, bary) if settings.model in LIGHTMAP_MODELS else None,
                           color=interpolate(s.colors, corners, bary), material=s.material_ids[tri],
                           front=hits.front[sel])
         if settings.per_vertex and settings.model != "unlit":
@@ -194,9 +194,12 @@ class Renderer:
 
     def require_inputs(self, settings: ShadingSettings) -> None:
         """PatchlightError when the model needs data the target lacks."""
-        if settings.model == "lightmap" and self.target.lightmap is None:
-            raise PatchlightError(f"{self.target.name}: --model lightmap needs a bake directory with "
+        if settings.model in LIGHTMAP_MODELS and self.target.lightmap is None:
+            raise PatchlightError(f"{self.target.name}: --model {settings.model} needs a bake directory with "
                                   f"lightmap.exr (write one with `patchlight bake`)")
+        if settings.model == "lightmap-directional" and settings.directional is None:
+            raise PatchlightError(f"{self.target.name}: --model lightmap-directional needs a bake made with "
+                                  f"--directional sh|dominant")
 
     # ------------------------------------------------------------------ environment
 

@@ -30,6 +30,7 @@ def target_settings(target: Target, model: str = "lambert", lights=None, falloff
     sky_up = sky_up if sky is None else np.asarray(sky, np.float32)
     ground_down = ground_down if ground is None else np.asarray(ground, np.float32)
     mean = ((sky_up + ground_down) / 2).astype(np.float32)
+    options.setdefault("directional", target.directional)
     settings = ShadingSettings(model=model, lights=punctual, sky=sky_up, ground=ground_down,
                                ambient=mean if ambient is None else np.asarray(ambient, np.float32), **options)
     settings.validate()

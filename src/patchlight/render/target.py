@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import PatchlightError
 from ..scene.model import Scene
+from ..shading.directional import DirectionalLightmap
 from ..shading.surface import SurfaceArrays
 
 _BAKE_PICTURE = re.compile(r"^(lightmap|adaptive|pass_\d{2,})\.png$")
@@ -23,12 +24,13 @@ _BAKE_PICTURE = re.compile(r"^(lightmap|adaptive|pass_\d{2,})\.png$")
 @dataclass
 class Target:
     """scene; surface: its per-vertex arrays; lightmap (H, W, 3) f32 incident light or None;
-    bake_dir: the bake directory or None."""
+    bake_dir: the bake directory or None; directional: the bake's directional lightmap or None."""
 
     scene: Scene
     surface: SurfaceArrays
     lightmap: np.ndarray | None = None
     bake_dir: Path | None = None
+    directional: DirectionalLightmap | None = None
 
     @classmethod
     def from_scene(cls, scene: Scene, lightmap: np.ndarray | None = None, bake_dir: Path | None = None) -> "Target":
@@ -58,5 +60,7 @@ def load_target(spec: str) -> Target:
 
     if not is_builtin(spec) and Path(spec).is_dir():
         solved = load_solved(spec)  # a complete bake, else its one-line error
-        return Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
+        target = Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
+        target.directional = DirectionalLightmap.load(target.bake_dir)
+        return target
     return Target.from_scene(load_scene(spec))

@@ -12,6 +12,7 @@
 //   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) alone: no punctual lights (issue 4's
 //                definition, the hemisphere light of hemisphere-lighting-with-radiosity-maps.txt)
 //   lightmap     specular = sum I (N.H)^n only with LIGHTMAP_SPECULAR (the lightmap has the diffuse)
+//   lightmap-directional  as lightmap; the fragment adds the baked light's own highlight
 //   envmap       diffuse as lambert; reflected = reflect(-V, N); fresnel = k (1 - N.V)
 //   ambient-cube diffuse = the light volume seen along N, specular = k x the volume along
 //                reflect(-V, N) (ambient_cube.glsl); no lights: the volume holds them
@@ -36,7 +37,7 @@ void add_light(inout Lighting lit, Incident light, vec3 N, vec3 V, float gloss, 
 #elif MODEL == MODEL_BLINN_PHONG
     lit.diffuse += n_dot_l * light.I;
     lit.specular += min(blinn_phong_specular(N, light.L, V, shininess), gloss) * light.I;
-#elif MODEL == MODEL_LIGHTMAP
+#elif MODEL == MODEL_LIGHTMAP || MODEL == MODEL_LIGHTMAP_DIRECTIONAL
 #ifdef LIGHTMAP_SPECULAR
     lit.specular += min(blinn_phong_specular(N, light.L, V, shininess), gloss) * light.I;
 #endif
@@ -52,7 +53,7 @@ Lighting light_surface(vec3 P, vec3 N, vec3 V, float gloss, float shininess, flo
 #elif MODEL == MODEL_AMBIENT_CUBE
     lit.diffuse = ambient_cube_light(P, N);
     lit.specular = reflectivity * ambient_cube_light(P, lit.reflected);
-#elif MODEL != MODEL_UNLIT && MODEL != MODEL_LIGHTMAP
+#elif MODEL != MODEL_UNLIT && MODEL != MODEL_LIGHTMAP && MODEL != MODEL_LIGHTMAP_DIRECTIONAL
     lit.diffuse = ambient_color;
 #endif
 #if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE && MODEL != MODEL_HEMISPHERE

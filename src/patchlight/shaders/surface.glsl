@@ -16,6 +16,7 @@
 #include "environment.glsl"
 #include "envmap.glsl"
 #include "lightmap.glsl"
+#include "lightmap_directional.glsl"
 #include "ambient_cube.glsl"
 #include "normal_map.glsl"
 #include "material.glsl"

@@ -1,7 +1,8 @@
 // surface_fragment.glsl: one pixel of a surface. Per pixel (the default) the light sum is
 // evaluated here with the interpolated normal, flipped on the back of double-sided
 // surfaces and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
-// gloss (hlsl-lighting-models.txt's bump-mapping shader: min(specular, color.w)).
+// gloss (hlsl-lighting-models.txt's bump-mapping shader: min(specular, color.w)). The
+// lightmap-directional model redistributes the baked light for that normal.
 // OVERLAY shows a lightmap-space debug picture (a bake's pass or adaptive-sampling image)
 // as it is stored, without lighting or exposure.
 #include "surface.glsl"
@@ -29,7 +30,8 @@ void main() {
 #ifdef PER_VERTEX
     Lighting lit = Lighting(v_diffuse, v_specular, v_reflected, v_fresnel);
 #else
-    vec3 N = normalize(v_normal) * (gl_FrontFacing ? 1.0 : -1.0);
+    vec3 N0 = normalize(v_normal) * (gl_FrontFacing ? 1.0 : -1.0);
+    vec3 N = N0;
     float gloss = 1.0;
 #ifdef NORMAL_MAP
     N = perturb_normal(N, v_tangent, decode_normal(texture(normal_map, v_uv0).rgb));
@@ -42,6 +44,12 @@ void main() {
     vec3 baked = hemisphere_radiosity(v_position, v_normal);
 #else
     vec3 baked = lightmap_light(v_uv1);
+#endif
+#if MODEL == MODEL_LIGHTMAP_DIRECTIONAL && !defined(PER_VERTEX)
+#ifdef LIGHTMAP_SPECULAR
+    lit.specular += directional_specular(v_uv1, baked, N, V, gloss, shininess);
+#endif
+    baked = directional_light(v_uv1, baked, N, N0);
 #endif
     vec4 env = texture(env_map, lit.reflected);
     vec3 radiance = compose_surface(color, surface_emission(v_uv0), lit, baked, env, reflectivity);

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import PatchlightError
 from .ambient_cube import ambient_cube_light, sky_volume
+from .directional import DirectionalLightmap, directional_light, directional_specular
 from .hemisphere_radiosity import (GroundMapInputs, apply_fog, check_ambient, fog_factor, hemisphere_radiosity,
                                    hemisphere_radiosity_color, neutral_ground_map)
 from .lights import PunctualLight, incident_light
@@ -24,8 +25,9 @@ DEFAULT_AMBIENT = 0.05  # incident light of the ambient term without a sky: dim,
 
 # Index = the GLSL MODEL_* number (common.glsl).
 MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", "hemisphere", "lightmap", "envmap",
-          "hemisphere-radiosity", "ambient-cube")
+          "hemisphere-radiosity", "ambient-cube", "lightmap-directional")
 LIT_MODELS = MODELS[1:]
+LIGHTMAP_MODELS = ("lightmap", "lightmap-directional")  # the models that read the lightmap (TEXCOORD_1)
 UNLIT_BY_LIGHTS = ("unlit", "ambient", "hemisphere", "ambient-cube")  # models the punctual lights do not reach
 
 
@@ -42,7 +44,8 @@ class ShadingSettings:
     material's, or None to keep theirs. ground_map: the hemisphere-radiosity model's baked
     ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`). volume: the
     ambient-cube model's light volume (patchlight.volumes.LightVolume), or None for the sky as
-    one probe (`cube_volume`); ambient_cube_naive: weight its axes by saturate(N), not N^2."""
+    one probe (`cube_volume`); ambient_cube_naive: weight its axes by saturate(N), not N^2.
+    directional: the lightmap-directional model's DirectionalLightmap (a bake's), or None."""
 
     model: str = "lambert"
     lights: list[PunctualLight] = field(default_factory=list)
@@ -57,6 +60,7 @@ class ShadingSettings:
     ground_map: GroundMapInputs | None = None
     volume: object | None = None
     ambient_cube_naive: bool = False
+    directional: DirectionalLightmap | None = None
 
     def cube_volume(self):
         """The ambient-cube model's volume: the baked one, else one probe of sky, ground and ambient."""
@@ -71,6 +75,8 @@ class ShadingSettings:
             raise PatchlightError(f"--model {self.model}: unknown lighting model (choose from {', '.join(MODELS)})")
         if self.per_vertex and self.normal_map:
             raise PatchlightError("--normal-map needs per-pixel lighting; drop --per-vertex")
+        if self.per_vertex and self.model == "lightmap-directional":
+            raise PatchlightError("--model lightmap-directional lights per pixel; drop --per-vertex")
         if not (np.isfinite(self.exposure) and self.exposure > 0):
             raise PatchlightError(f"--exposure {self.exposure}: must be a positive number")
         if self.reflectivity is not None and not 0 <= self.reflectivity <= 1:
@@ -164,7 +170,7 @@ def add_light(model: str, lit: Lighting, L: np.ndarray, I: np.ndarray, N: np.nda
         specular = phong_specular if model == "phong" else blinn_phong_specular
         lit.diffuse += n_dot_l * I
         lit.specular += np.minimum(specular(N, L, V, shininess), gloss)[:, None] * I
-    elif model == "lightmap":
+    elif model in LIGHTMAP_MODELS:
         if lightmap_specular:
             lit.specular += np.minimum(blinn_phong_specular(N, L, V, shininess), gloss)[:, None] * I
     else:
@@ -185,7 +191,7 @@ def light_surface(settings: ShadingSettings, P: np.ndarray, N: np.ndarray, V: np
         volume, naive = settings.cube_volume(), settings.ambient_cube_naive
         lit.diffuse[:] = ambient_cube_light(volume, P, N, naive)
         lit.specular[:] = np.reshape(reflectivity, (-1, 1)) * ambient_cube_light(volume, P, lit.reflected, naive)
-    elif model not in ("unlit", "lightmap"):
+    elif model not in ("unlit", *LIGHTMAP_MODELS):
         lit.diffuse[:] = settings.ambient
     if model not in UNLIT_BY_LIGHTS:
         for light in settings.lights:
@@ -201,7 +207,7 @@ def compose_surface(model: str, color: np.ndarray, emission: np.ndarray, lit: Li
     rgb = color[:, :3]
     if model == "unlit":
         return rgb.copy()
-    if model == "lightmap":
+    if model in LIGHTMAP_MODELS:
         return rgb * baked + lit.specular + emission
     if model == "envmap":
         return envmap_color(rgb * lit.diffuse, env, lit.fresnel, reflectivity) + emission
@@ -213,7 +219,7 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
     """surface_fragment.glsl on N pixels: linear radiance (N, 3) f32.
 
     eye (3,) camera position; lightmap (H, W, 3) incident light at uv1, needed by the
-    lightmap model; env (6, S, S, 4) cube map (RGB radiance, A highlight), needed by envmap and
+    lightmap models (lightmap-directional also by settings.directional); env (6, S, S, 4) cube map (RGB radiance, A highlight), needed by envmap and
     hemisphere-radiosity."""
     model = settings.model
     mat = frags.material
@@ -225,7 +231,7 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
     if frags.vertex_lighting is not None:
         lit = frags.vertex_lighting
     else:
-        N = normalize(frags.normal) * np.where(frags.front, 1.0, -1.0).astype(np.float32)[:, None]
+        N0 = N = normalize(frags.normal) * np.where(frags.front, 1.0, -1.0).astype(np.float32)[:, None]
         gloss = np.float32(1.0)
         if settings.normal_map:
             texel = materials.sample(materials.normal_maps, mat, frags.uv0, (0.5, 0.5, 1.0))
@@ -240,7 +246,13 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
                                               lit.fresnel, hemisphere_radiosity(m, frags.position, frags.normal),
                                               reflectivity, settings.ambient) + emission
         return apply_fog(m, radiance, fog_factor(m, frags.position, eye))
-    baked = lightmap_light(lightmap, frags.uv1) if model == "lightmap" else None
+    baked = lightmap_light(lightmap, frags.uv1) if model in LIGHTMAP_MODELS else None
+    if model == "lightmap-directional":  # surface_fragment.glsl's branch
+        d = settings.directional
+        texels = d.texels(frags.uv1)
+        if settings.lightmap_specular:
+            lit.specular = lit.specular + directional_specular(d.mode, texels, baked, N, V, gloss, shininess)
+        baked = directional_light(d.mode, texels, baked, N, N0)
     env_texels = sample_cube(env, lit.reflected) if model == "envmap" else None
     return compose_surface(model, color, emission, lit, baked, env_texels, reflectivity).astype(np.float32)
 

@@ -14,7 +14,8 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
     sky (the cube drawn behind the scene: "env" when the environment is the sky, its own
                 cube when the environment was rendered from a point, null without a sky),
     ground_map (the hemisphere-radiosity model's uniforms: patchlight.ground.viewer),
-    volume (the ambient-cube model's light volume: patchlight.volumes.viewer)
+    volume (the ambient-cube model's light volume: patchlight.volumes.viewer),
+    directional ({mode, maps}: the lightmap-directional model's maps, or null)
 """
 from __future__ import annotations
 
@@ -103,8 +104,16 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),
         "volume": volume_bundle(pack, settings),
+        "directional": _directional_bundle(pack, settings.directional),
     }
     return manifest, b"".join(pack.parts)
+
+
+def _directional_bundle(pack: _Packer, directional) -> dict | None:
+    if directional is None:
+        return None
+    return {"mode": directional.mode,
+            "maps": [pack.add_texture(f"directional_map{k}", m) for k, m in enumerate(directional.maps)]}
 
 
 def manifest_bytes(manifest: dict) -> bytes:

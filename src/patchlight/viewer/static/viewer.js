@@ -75,11 +75,23 @@ class Viewer {
       ground_color: { value: new THREE.Vector3(...s.ground) },
       env_map: { value: this.bundle.cube(this.manifest.env) },
       lightmap: { value: lightmap },
+      ...this.directionalUniforms(),
       exposure: { value: s.exposure },
       overlay_map: { value: constantTexture([0, 0, 0, 1]) },
       ...radiosityUniforms(this.bundle, this.manifest.ground_map),
       ...volumeUniforms(this.bundle),
     };
+  }
+
+  // lightmap_directional.glsl's maps (black stand-ins without a directional bake).
+  directionalUniforms() {
+    const maps = this.manifest.directional?.maps ?? [];
+    const uniforms = {};
+    for (let k = 0; k < 4; k++) {
+      uniforms[`directional_map${k}`] = { value: maps[k]
+        ? this.bundle.texture(maps[k], THREE.ClampToEdgeWrapping) : constantTexture([0, 0, 0, 1]) };
+    }
+    return uniforms;
   }
 
   material(m, vertexShader, fragmentShader) {
@@ -120,6 +132,7 @@ class Viewer {
     if (st.normalMap && !st.perVertex) defines.NORMAL_MAP = '';
     if (st.lightmapSpecular) defines.LIGHTMAP_SPECULAR = '';
     if (st.ambientCubeNaive) defines.AMBIENT_CUBE_NAIVE = '';
+    if (this.manifest.directional?.mode === 'sh') defines.DIRECTIONAL_SH = '';
     if (st.overlay) defines.OVERLAY = '';
     const key = JSON.stringify(defines);
     for (const material of this.materials) {
