@@ -198,8 +198,18 @@ def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):
         conn.request("GET", "/scene/manifest.json")
         manifest = json.loads(conn.getresponse().read())
         assert manifest["name"] == "room" and manifest["settings"]["model"] == "lambert"
+        # Ctrl-C while requests are under way: one half sent, one whose answer is not read.
+        half_sent = socket.create_connection(("127.0.0.1", port), timeout=10)
+        half_sent.sendall(b"GET /scene/da")
+        unread = socket.create_connection(("127.0.0.1", port), timeout=10)
+        unread.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        unread.sendall(f"GET /scene/data.bin HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+        assert unread.recv(12).startswith(b"HTTP/1.0 200")
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=20) == 0
+        assert "viewer stopped" in proc.stdout.read()
+        half_sent.close()
+        unread.close()
     finally:
         if proc.poll() is None:
             os.kill(proc.pid, signal.SIGKILL)
