@@ -128,6 +128,25 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) ->
     return image
 
 
+def stitch_seams(scene: Scene, patches: Patches, status: np.ndarray, images: list[np.ndarray]) -> tuple[list, dict]:
+    """The lightmap-space images with their UV chart seams stitched (imaging/stitch.py; texels
+    inside geometry and outside the charts only follow), and the seams' relative differences
+    before and after (median, p90, max over points every half texel) for bake.json."""
+    from .atlas.seams import seam_edges
+    from .imaging.stitch import seam_differences, stitch
+
+    uv_a, uv_b = seam_edges(scene.positions, scene.indices, scene.uv1)
+    valid = (patches.index >= 0) & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
+    stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
+
+    def summary(image):
+        d = seam_differences(image, uv_a, uv_b)
+        return {"median": float(np.median(d)), "p90": float(np.percentile(d, 90)), "max": float(d.max())} if len(d) \
+            else {"median": 0.0, "p90": 0.0, "max": 0.0}
+
+    return stitched, {"edges": len(uv_a), "before": summary(images[0]), "after": summary(stitched[0])}
+
+
 def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray, status: np.ndarray) -> np.ndarray:
     """(N, 3) incident light with only its gathered part denoised (by OIDN, chart by chart):
     ray-traced direct light and its sharp shadows stay as they are."""
@@ -197,6 +216,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             if settings.denoise:
                 incident = denoised_incident(patches, direct, solution.gathered, status)
             lightmap = fill_lightmap(patches, incident, status)
+        seams = None
+        if settings.stitch:
+            with progress.stage("seams"):
+                (lightmap,), seams = stitch_seams(scene, patches, status, [lightmap])
     counts = np.bincount(status, minlength=4)
     to_come = change_to_come(solution.changes)
     stats = {
@@ -222,6 +245,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "seconds_per_stage": dict(progress.seconds),
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,
+        "seams": seams,
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
     return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)

@@ -22,6 +22,7 @@
 | seed              | int           | 1              | random rotation of the stratified pattern per patch (>= 0)      |
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
 | save_passes       | bool          | False          | keep one lightmap per pass (pass_01.png, ...)                   |
+| stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
 | ray               | str           | None           | Ray cluster address for the gather ("local": start one here)    |
 """
 from __future__ import annotations
@@ -58,6 +59,7 @@ class BakeSettings:
     seed: int = 1
     denoise: bool = False
     save_passes: bool = False
+    stitch: bool = True
     ray: str | None = None
 
     def to_json(self) -> dict:

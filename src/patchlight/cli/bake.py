@@ -62,6 +62,8 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
     p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
+    p.add_argument("--no-stitch", dest="stitch", action="store_false",
+                   help="leave UV chart seams as solved (default: texels across a seam made to agree)")
     p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster (\"local\": start one here)")
     p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
     p.add_argument("--max-memory", type=float, default=DEFAULTS.max_memory / 2**30, metavar="GiB")
@@ -83,7 +85,8 @@ def settings_from_args(args) -> BakeSettings:
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
                             accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
-                            save_passes=args.save_passes, denoise=args.denoise, ray=args.ray)
+                            save_passes=args.save_passes, denoise=args.denoise, ray=args.ray,
+                            stitch=args.stitch)
     settings.validate()
     return settings
 
