@@ -160,6 +160,16 @@ def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray
     return incident
 
 
+def _join_cluster(address: str | None):
+    """The Ray cluster the gather runs on (joined before any work, so a bad address costs
+    nothing), or None: the gather runs here."""
+    if address is None:
+        return None
+    from .radiosity.cluster import RayCluster
+
+    return RayCluster(address)
+
+
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
     from .atlas.raster import rasterize, texel_points
@@ -169,6 +179,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     settings.validate()
     _check_scene(scene)
     available = available_memory()  # read once, before the bake holds any of it
+    cluster = _join_cluster(settings.ray)
     if settings.resolution is not None:
         check_bake_memory(settings.resolution, settings.resolution, settings.texel_samples, available)
     start = time.perf_counter()
@@ -192,10 +203,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         rays_direct = tracer.rays_traced
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
         gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
-        if settings.ray is not None:
-            from .radiosity.cluster import RayCluster
-
-            gatherer.cluster = RayCluster(settings.ray)
+        gatherer.cluster = cluster
         budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
@@ -246,6 +254,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,
         "seams": seams,
+        "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
     return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)

@@ -23,7 +23,7 @@
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
 | save_passes       | bool          | False          | keep one lightmap per pass (pass_01.png, ...)                   |
 | stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
-| ray               | str           | None           | Ray cluster address for the gather ("local": start one here)    |
+| ray               | str           | None           | Ray head HOST:PORT for the gather ("auto", or "local": start one) |
 """
 from __future__ import annotations
 

@@ -64,7 +64,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
     p.add_argument("--no-stitch", dest="stitch", action="store_false",
                    help="leave UV chart seams as solved (default: texels across a seam made to agree)")
-    p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster (\"local\": start one here)")
+    p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster: its head's HOST:PORT, auto, or local")
     p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
     p.add_argument("--max-memory", type=float, default=DEFAULTS.max_memory / 2**30, metavar="GiB")
     p.add_argument("--seed", type=int, default=DEFAULTS.seed)
