@@ -18,11 +18,13 @@ from .errors import PatchlightError
 from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
+from .radiosity.directional import add_direct, gather_directions, split_maps
 from .radiosity.gather import Gatherer
 from .radiosity.memory import available_memory, check_bake_memory, form_factor_budget
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
+from .shading.directional import DirectionalLightmap
 
 FLOAT32_REACH = 1e-5        # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
@@ -37,7 +39,8 @@ REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
 @dataclass
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
-    solution, the (possibly re-indexed) scene with its lightmap UVs, and stats for bake.json."""
+    solution, the (possibly re-indexed) scene with its lightmap UVs, and stats for bake.json;
+    directional: the directional lightmap (`BakeSettings.directional`) or None."""
 
     scene: Scene
     patches: Patches
@@ -46,6 +49,7 @@ class BakeResult:
     solution: Solution
     stats: dict = field(default_factory=dict)
     pass_images: list = field(default_factory=list)
+    directional: DirectionalLightmap | None = None
 
 
 def _check_scene(scene: Scene) -> None:
@@ -128,6 +132,15 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) ->
     return image
 
 
+def directional_images(scene: Scene, patches: Patches, status: np.ndarray, gatherer: Gatherer, solution: Solution,
+                       per_light: list[np.ndarray], rows: np.ndarray, mode: str, advance) -> np.ndarray:
+    """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
+    filled as the lightmap is."""
+    sums = gather_directions(gatherer, solution.excident, rows, advance)
+    add_direct(sums, patches, scene.lights, per_light)
+    return fill_lightmap(patches, sums.lightmap_values(mode), status)
+
+
 def stitch_seams(scene: Scene, patches: Patches, status: np.ndarray, images: list[np.ndarray]) -> tuple[list, dict]:
     """The lightmap-space images with their UV chart seams stitched (imaging/stitch.py; texels
     inside geometry and outside the charts only follow), and the seams' relative differences
@@ -198,8 +211,11 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         offset = ray_offsets(scene, patches)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
-            direct = direct_light(texel_points(scene, patches, settings.texel_samples), patches.normal,
-                                  scene.lights, tracer, settings.falloff, sun_angle, settings.sun_samples, offset)
+            points = texel_points(scene, patches, settings.texel_samples)
+            lights = [[light] for light in scene.lights] if settings.directional else [scene.lights]
+            per_light = [direct_light(points, patches.normal, group, tracer, settings.falloff, sun_angle,
+                                      settings.sun_samples, offset) for group in lights]
+            direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
         rays_direct = tracer.rays_traced
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
         gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
@@ -224,10 +240,18 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             if settings.denoise:
                 incident = denoised_incident(patches, direct, solution.gathered, status)
             lightmap = fill_lightmap(patches, incident, status)
+        images = [lightmap]
+        if settings.directional:
+            valid = np.flatnonzero(status != adaptive.INSIDE)
+            with progress.stage("directional", total=len(valid)) as advance:
+                images.append(directional_images(scene, patches, status, gatherer, solution, per_light, valid,
+                                                 settings.directional, advance))
         seams = None
         if settings.stitch:
             with progress.stage("seams"):
-                (lightmap,), seams = stitch_seams(scene, patches, status, [lightmap])
+                images, seams = stitch_seams(scene, patches, status, images)
+        lightmap = images[0]
+        directional = split_maps(settings.directional, images[1]) if settings.directional else None
     counts = np.bincount(status, minlength=4)
     to_come = change_to_come(solution.changes)
     stats = {
@@ -257,11 +281,11 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
-    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images)
+    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images, directional)
 
 
 BAKE_MARKER = "bake.json"          # written last: a directory is a bake only with it
-BAKE_STALE = ("pass_*.png",)       # files an older bake may hold that a new one need not write
+BAKE_STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older bake's files a new one need not write
 
 
 def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
@@ -289,12 +313,15 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     value_range = float(max(1.0, result.lightmap.max()))
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
-    names = sorted(["lightmap.exr", "scene.glb", BAKE_MARKER, *pictures])
+    extra = [] if result.directional is None else [result.directional.file_name]
+    names = sorted(["lightmap.exr", "scene.glb", BAKE_MARKER, *pictures, *extra])
     sky = result.scene.sky
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
                **result.stats, "files": names}
     write_exr(staging / "lightmap.exr", result.lightmap)
+    if result.directional is not None:
+        result.directional.save(staging)
     for name, pixels in pictures.items():
         write_png(staging / name, pixels)
     save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,

@@ -23,6 +23,7 @@
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
 | save_passes       | bool          | False          | keep one lightmap per pass (pass_01.png, ...)                   |
 | stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
+| directional       | str           | None           | also bake "sh" (L1, lightmap_sh.exr) or "dominant" (_dir.exr)   |
 | ray               | str           | None           | Ray head HOST:PORT for the gather ("auto", or "local": start one) |
 """
 from __future__ import annotations
@@ -35,6 +36,7 @@ from .errors import PatchlightError
 GiB = 1 << 30
 FALLOFFS = ("inverse-square", "range")
 GATHERS = ("stratified", "hemicube")
+DIRECTIONAL_MODES = ("sh", "dominant")  # L1 spherical harmonics, or the dominant direction and its share
 
 
 @dataclass
@@ -60,6 +62,7 @@ class BakeSettings:
     denoise: bool = False
     save_passes: bool = False
     stitch: bool = True
+    directional: str | None = None
     ray: str | None = None
 
     def to_json(self) -> dict:
@@ -92,6 +95,7 @@ class BakeSettings:
              "exposure must be a positive number or auto"),
             (number(self.max_memory) and self.max_memory >= 0, "max memory must be a number >= 0"),
             (isinstance(self.seed, int) and self.seed >= 0, "seed must be a whole number >= 0"),
+            (self.directional in (None, *DIRECTIONAL_MODES), "directional must be sh or dominant"),
         ]
         for ok, message in checks:
             if not ok:

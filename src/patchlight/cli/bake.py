@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..config import FALLOFFS, GATHERS, BakeSettings
+from ..config import DIRECTIONAL_MODES, FALLOFFS, GATHERS, BakeSettings
 from ..errors import PatchlightError
 
 DEFAULTS = BakeSettings()
@@ -62,6 +62,9 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
     p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
+    p.add_argument("--directional", choices=DIRECTIONAL_MODES,
+                   help="also bake the light's direction: L1 spherical harmonics (lightmap_sh.exr) or the "
+                        "dominant direction and its share (lightmap_dir.exr), for --model lightmap-directional")
     p.add_argument("--no-stitch", dest="stitch", action="store_false",
                    help="leave UV chart seams as solved (default: texels across a seam made to agree)")
     p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster: its head's HOST:PORT, auto, or local")
@@ -86,7 +89,7 @@ def settings_from_args(args) -> BakeSettings:
                             accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
                             save_passes=args.save_passes, denoise=args.denoise, ray=args.ray,
-                            stitch=args.stitch)
+                            stitch=args.stitch, directional=args.directional)
     settings.validate()
     return settings
 

@@ -28,11 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config import DIRECTIONAL_MODES
 from ..errors import PatchlightError
 from .terms import blinn_phong_specular
 from .textures import sample_bilinear
 
-MODES = ("sh", "dominant")
+MODES = DIRECTIONAL_MODES
 Y00 = 0.28209479177387814  # 1 / (2 sqrt(pi))
 Y1 = 0.4886025119029199    # sqrt(3 / (4 pi))
 SH_LAYERS = ("L0", "L1x", "L1y", "L1z")
@@ -53,6 +54,10 @@ class DirectionalLightmap:
         if self.mode not in MODES:
             raise PatchlightError(f"--directional {self.mode}: choose sh or dominant")
         self.maps = np.asarray(self.maps, np.float32)
+
+    @property
+    def file_name(self) -> str:
+        return FILES[self.mode]
 
     def save(self, folder: Path) -> None:
         from ..imaging.io import write_exr_layers

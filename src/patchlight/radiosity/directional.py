@@ -1,0 +1,121 @@
+"""Directional lightmaps baked (`bake --directional sh|dominant`; the formats and the runtime
+model are `patchlight.shading.directional`'s).
+
+Once the passes have converged, every valid texel looks again through the gather's own rays
+(same pattern, same turn per patch) at the solved excident light B, the sky and the emitters
+(their B holds their emission), and each light's direct share arrives from its direction
+(the sun's, or towards the lamp). Each piece of light is projected:
+
+- L1 SH of radiance: a ray of weight w (the pattern's weights sum to 1 and stand for
+  cos dw / pi) carries solid angle dw = pi w / cos, so c += L dw (Y00, Y1 w_dir). The 1/cos
+  of grazing rays makes that noisy (a uniform sky came out up to 12 % off at 1024 rays), so
+  the part of L that a + b cos fits (least squares over the rays' weights) is projected
+  exactly and only the rest goes through the rays: light even around the normal costs no
+  noise, and the noise scales with how uneven the rest is. A lamp
+  whose incident light is I from a direction at cosine cos is a radiance delta of irradiance
+  E = pi I / cos: c += E (Y00, Y1 l).
+- dominant direction: the luminance-weighted mean of the incident-light pieces' directions,
+  sum lum(I_piece) dir / sum lum(I_piece), whose length is its share.
+
+F holds no directions (it would take four times its memory), hence the second look: it costs
+one more gather of every valid texel, traced straight into these sums and never stored.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..atlas.patches import Patches
+from ..shading.directional import LUMINANCE, Y00, Y1, DirectionalLightmap
+from . import _kernels
+from .gather import Gatherer
+
+MIN_COS = 1e-4  # grazing rays: cosines below this count as this, bounding their solid angle
+
+
+class DirectionalSums:
+    """Per-patch sums: sh (N, 4, 3) L1 coefficients; dominant (N, 4) luminance-weighted
+    direction (xyz) and total luminance (w)."""
+
+    def __init__(self, n: int):
+        self.sh = np.zeros((n, 4, 3))
+        self.dominant = np.zeros((n, 4))
+
+    def add_sh(self, rows: np.ndarray, irradiance: np.ndarray, dirs: np.ndarray) -> None:
+        """Pieces of radiance x solid angle, irradiance (M, 3), arriving along unit dirs (M, 3) at patches rows (M,)."""
+        basis = np.concatenate([np.full((len(dirs), 1), Y00), Y1 * dirs], axis=1)   # (M, 4)
+        np.add.at(self.sh, rows, basis[:, :, None] * irradiance[:, None, :])
+
+    def add_radial(self, rows: np.ndarray, a: np.ndarray, b: np.ndarray, normals: np.ndarray) -> None:
+        """Radiance a + b cos (a, b (R, 3)) over the hemisphere about normals (R, 3), exactly:
+        the hemisphere's integrals of 1, cos, the direction and the direction x cos are 2 pi,
+        pi, pi n and 2 pi n / 3."""
+        self.sh[rows, 0] += Y00 * (2 * np.pi * a + np.pi * b)
+        self.sh[rows, 1:] += Y1 * normals[:, :, None] * (np.pi * a + 2 * np.pi / 3 * b)[:, None, :]
+
+    def add_dominant(self, rows: np.ndarray, incident: np.ndarray, dirs: np.ndarray) -> None:
+        """Pieces of incident light I (M, 3) arriving along unit dirs (M, 3) at patches rows (M,)."""
+        lum = incident @ LUMINANCE
+        np.add.at(self.dominant, rows, np.concatenate([dirs, np.ones((len(dirs), 1))], axis=1) * lum[:, None])
+
+    def lightmap_values(self, mode: str) -> np.ndarray:
+        """(N, C) per-patch values of the mode's maps: 12 for sh (L0, L1x, L1y, L1z x RGB), 3 for dominant."""
+        if mode == "sh":
+            return self.sh.reshape(len(self.sh), 12).astype(np.float32)
+        total = np.maximum(self.dominant[:, 3:], 1e-12)
+        return (self.dominant[:, :3] / total).astype(np.float32)
+
+
+def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advance=None) -> DirectionalSums:
+    """The sums of what the gather's rays from patches `rows` see (B (N, 3) at patch hits, the
+    sky at misses)."""
+    sums = DirectionalSums(len(gatherer.patches))
+    d = gatherer.rays_per_patch
+    weights = gatherer.weights.astype(np.float64)
+    solid_angle = np.pi * weights / np.maximum(gatherer.dirs[:, 2].astype(np.float64), MIN_COS)  # local z = cos
+    B = np.asarray(B, np.float64)
+
+    def chunk(part):
+        seen, dirs = gatherer._see(part, gatherer.dirs)
+        radiance = np.zeros((len(seen), 3))
+        hit = seen >= 0
+        radiance[hit] = B[seen[hit]]
+        sky = seen == _kernels.SKY
+        if gatherer.sky is not None and sky.any():
+            radiance[sky] = gatherer.sky.radiance(dirs[sky])
+        return part, radiance.reshape(len(part), d, 3), dirs.astype(np.float64)
+
+    cos = gatherer.dirs[:, 2].astype(np.float64)
+    moments = np.linalg.inv([[weights.sum(), weights @ cos], [weights @ cos, weights @ cos ** 2]])
+    for part, radiance, dirs in gatherer.tracer.map(chunk, gatherer._chunks(rows)):
+        m0, m1 = np.einsum("rdc,d->rc", radiance, weights), np.einsum("rdc,d->rc", radiance, weights * cos)
+        a, b = moments[0, 0] * m0 + moments[0, 1] * m1, moments[1, 0] * m0 + moments[1, 1] * m1
+        ray_rows = np.repeat(part, d)
+        sums.add_radial(part, a, b, gatherer.patches.normal[part].astype(np.float64))
+        residual = radiance - a[:, None] - b[:, None] * cos[None, :, None]
+        sums.add_sh(ray_rows, (residual * solid_angle[None, :, None]).reshape(-1, 3), dirs)
+        sums.add_dominant(ray_rows, (radiance * weights[None, :, None]).reshape(-1, 3), dirs)
+        if advance is not None:
+            advance(len(part))
+    return sums
+
+
+def add_direct(sums: DirectionalSums, patches: Patches, lights, per_light: list[np.ndarray]) -> None:
+    """Add each light's direct incident light (per_light: (N, 3) per light) from its direction."""
+    for light, incident in zip(lights, per_light):
+        if light.kind == "directional":
+            to_light = np.broadcast_to(-np.asarray(light.direction, np.float64), (len(patches), 3))
+        else:
+            to_light = np.asarray(light.position, np.float64) - patches.position
+        to_light = to_light / np.maximum(np.linalg.norm(to_light, axis=1, keepdims=True), 1e-30)
+        lit = np.flatnonzero(np.asarray(incident).max(axis=1) > 0)
+        cos = np.maximum(np.einsum("ij,ij->i", patches.normal[lit], to_light[lit]), MIN_COS)
+        I = np.asarray(incident, np.float64)[lit]
+        sums.add_sh(lit, np.pi * I / cos[:, None], to_light[lit])
+        sums.add_dominant(lit, I, to_light[lit])
+
+
+def split_maps(mode: str, images: np.ndarray) -> DirectionalLightmap:
+    """(H, W, C) images of `lightmap_values` -> the DirectionalLightmap."""
+    h, w = images.shape[:2]
+    maps = images.reshape(h, w, -1, 3).transpose(2, 0, 1, 3) if mode == "sh" else images[None]
+    return DirectionalLightmap(mode, np.ascontiguousarray(maps))
