@@ -53,13 +53,16 @@ def _unit_rows(v: np.ndarray, fallback) -> np.ndarray:
 
 
 def vertex_tangents(positions: np.ndarray, normals: np.ndarray, uv: np.ndarray, indices: np.ndarray) -> np.ndarray:
-    """(V, 4) tangents from the UVs, for files that carry none.
+    """(V, 4) tangents from the UVs, for files that carry none, weighted as MikkTSpace (glTF's
+    tangent convention) weights them.
 
-    Each triangle's dP/du and dP/dv are summed at its corners (as vertex normals are summed
-    from face normals; hlsl-lighting-models.txt, "Bump Mapping"), the sum of dP/du is made
-    orthogonal to the normal (Gram-Schmidt), and w = +-1 records whether cross(N, T) points
-    up the image (towards -v, glTF's bitangent) or down. Vertices without UV gradient get
-    any tangent perpendicular to their normal."""
+    Each triangle's dP/du and dP/dv (hlsl-lighting-models.txt, "Bump Mapping"), made unit
+    and projected into the plane of each corner's normal, are summed at its corners weighted
+    by the corner's angle; the sum of dP/du is made orthogonal to the normal (Gram-Schmidt),
+    and w = +-1 records whether cross(N, T) points up the image (towards -v, glTF's
+    bitangent) or down. MikkTSpace also splits a vertex whose triangles disagree on w; the
+    vertices here are fixed, so the summed bitangent decides. Vertices without UV gradient
+    get any tangent perpendicular to their normal."""
     p = np.asarray(positions, np.float64)[indices]
     t = np.asarray(uv, np.float64)[indices]
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
@@ -68,12 +71,14 @@ def vertex_tangents(positions: np.ndarray, normals: np.ndarray, uv: np.ndarray, 
     r = np.divide(1.0, det, out=np.zeros_like(det), where=np.abs(det) > 1e-20)[:, None]
     dp_du = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * r
     dp_dv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * r
+    n = np.asarray(normals, np.float64)
     tan_sum = np.zeros((len(positions), 3))
     bit_sum = np.zeros((len(positions), 3))
     for corner in range(3):
-        np.add.at(tan_sum, indices[:, corner], dp_du)
-        np.add.at(bit_sum, indices[:, corner], dp_dv)
-    n = np.asarray(normals, np.float64)
+        vertex = indices[:, corner]
+        angle = _corner_angle(p, corner)[:, None]
+        np.add.at(tan_sum, vertex, angle * _in_plane(dp_du, n[vertex]))
+        np.add.at(bit_sum, vertex, angle * _in_plane(dp_dv, n[vertex]))
     tangent = tan_sum - n * np.einsum("ij,ij->i", n, tan_sum)[:, None]
     length = np.linalg.norm(tangent, axis=1)
     missing = length < 1e-12
@@ -82,6 +87,21 @@ def vertex_tangents(positions: np.ndarray, normals: np.ndarray, uv: np.ndarray, 
     up_image = -bit_sum
     w = np.where(np.einsum("ij,ij->i", np.cross(n, tangent), up_image) < 0, -1.0, 1.0)
     return np.concatenate([tangent, w[:, None]], axis=1).astype(np.float32)
+
+
+def _corner_angle(p: np.ndarray, corner: int) -> np.ndarray:
+    """(T,) the angle (radians) of each triangle (T, 3, 3) at `corner`."""
+    a = p[:, (corner + 1) % 3] - p[:, corner]
+    b = p[:, (corner + 2) % 3] - p[:, corner]
+    cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+def _in_plane(v: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """v (N, 3) projected into the plane of unit normals n (N, 3) and made unit (zero stays zero)."""
+    v = v - n * np.einsum("ij,ij->i", n, v)[:, None]
+    length = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.divide(v, length, out=np.zeros_like(v), where=length > 1e-20)
 
 
 def _any_perpendicular(n: np.ndarray) -> np.ndarray:
