@@ -1,6 +1,12 @@
 """Lightmap UVs: TEXCOORD_1 kept, xatlas in a child process, the planar fallback packer."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import numpy as np
 import pytest
 from atlas_meshes import cube_scene, quad_scene, sphere_scene
@@ -112,6 +118,48 @@ def test_xatlas_timeout_falls_back(monkeypatch):
     info = ensure_lightmap_uvs(cube_scene(), texels_per_unit=16)[3]
     assert info["uv_source"] == "fallback" and len(info["warnings"]) == 1
     assert info["warnings"][0].startswith("xatlas took longer than")
+
+
+@pytest.mark.parametrize("scale", [1e12, 1e18])
+def test_huge_coordinates_reach_xatlas_normalised(scale):
+    """A cube 1e12 (1e18) m wide at 3e12 (3e18) m gets the same charts and size as a 1 m cube
+    (xatlas sees the same unit-sized mesh) and its density in texels per metre."""
+    small = ensure_lightmap_uvs(cube_scene(), resolution=64)
+    huge_source = cube_scene(scale)
+    huge_source.positions += np.float32(3 * scale)
+    huge = ensure_lightmap_uvs(huge_source, resolution=64)
+    assert huge[3]["uv_source"] == small[3]["uv_source"] == "xatlas"
+    assert huge[3]["charts"] == small[3]["charts"] and huge[1:3] == small[1:3]
+    assert huge[3]["texels_per_unit"] == pytest.approx(small[3]["texels_per_unit"] / scale, rel=1e-5)
+
+
+def test_xatlas_child_dies_with_its_parent(tmp_path):
+    """SIGKILL the process waiting for a (hanging) xatlas child: the kernel kills the child
+    too, and no temporary folder of it remains."""
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); from atlas_meshes import cube_scene\n"
+              "from patchlight.atlas.uvs import ensure_lightmap_uvs; ensure_lightmap_uvs(cube_scene())")
+    env = {**os.environ, "PATCHLIGHT_XATLAS_CHILD_HANG": "1", "TMPDIR": str(tmp_path)}
+    parent = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent)], env=env)
+    try:
+        child = None
+        for _ in range(600):  # up to 60 s on a busy machine
+            children = Path(f"/proc/{parent.pid}/task/{parent.pid}/children").read_text().split()
+            if children:
+                child = int(children[0])
+                break
+            time.sleep(0.1)
+        assert child is not None, "no xatlas child started"
+        time.sleep(0.5)  # the child has set its parent-death signal before it pauses
+    finally:
+        parent.kill()
+        parent.wait()
+    for _ in range(100):
+        if not Path(f"/proc/{child}").exists() or "Z" in Path(f"/proc/{child}/stat").read_text().split()[2]:
+            break
+        time.sleep(0.1)
+    else:
+        raise AssertionError("the xatlas child outlived its parent")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_vertex_arrays_are_split_consistently():

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from patchlight.cli.main import build_parser, main
+from patchlight.cli.main import main
+from patchlight.cli.parser import build_parser
 from patchlight.cli.render import load_target_and_settings
 from patchlight.errors import PatchlightError
 from patchlight.ground.files import load_ground_map

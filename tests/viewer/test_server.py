@@ -206,7 +206,7 @@ def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):
         unread.sendall(f"GET /scene/data.bin HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
         assert unread.recv(12).startswith(b"HTTP/1.0 200")
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=20) == 0
+        assert proc.wait(timeout=20) == 130
         assert "viewer stopped" in proc.stdout.read()
         half_sent.close()
         unread.close()

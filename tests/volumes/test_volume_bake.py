@@ -8,6 +8,7 @@ from volume_scenes import constant_solved, floor, speck_under_sky, sun
 
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
+from patchlight.errors import PatchlightError
 from patchlight.scene import SceneBuilder, Sky
 from patchlight.shading.ambient_cube import ambient_cube_light
 from patchlight.solved import SolvedScene, load_solved
@@ -203,3 +204,24 @@ def test_the_room_floor_reads_the_same_light_at_its_surface_and_a_hair_above():
     on, above = (ambient_cube_light(volume, np.stack([x, np.full_like(x, y), np.full_like(x, 3.0)], 1), up)
                  for y in (0.0, 1e-3))
     np.testing.assert_allclose(on, above, rtol=0.02)
+
+
+def test_fill_ends_when_an_axis_has_no_valid_value_anywhere():
+    """+X invalid at every probe: no ring can reach it; it takes the mean of the known values
+    after at most the grid's longest side in rings, rather than looping for ever."""
+    cube = np.ones((6, 2, 2, 3, 3), np.float32)
+    cube[1:] *= 3.0
+    invalid = np.zeros((6, 2, 2, 3), bool)
+    invalid[0] = True
+    filled = fill_invalid(cube, invalid, np.zeros((2, 2, 3, 3), np.float32))
+    np.testing.assert_allclose(filled[0], 3.0)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_fill_refuses_values_that_are_not_finite(bad):
+    cube = np.ones((6, 1, 1, 3, 3), np.float32)
+    cube[2, 0, 0, 0, 1] = bad
+    invalid = np.zeros((6, 1, 1, 3), bool)
+    invalid[:, 0, 0, 1] = True
+    with pytest.raises(PatchlightError, match="not finite"):
+        fill_invalid(cube, invalid, np.zeros((1, 1, 3, 3), np.float32))

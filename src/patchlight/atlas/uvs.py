@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import io
 import math
 import os
 import signal
 import subprocess
 import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -179,32 +179,40 @@ def _uv_areas(uv, indices):
 # ----------------------------------------------------------------------------------------
 
 def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
+    """Packing from xatlas in a child process, fed through pipes (no temporary files), which
+    the kernel kills when this process dies. The positions go centred and scaled to a unit
+    extent (xatlas ran for minutes and gigabytes on coordinates of 1e12), the density scaled
+    to match."""
     if not _xatlas_installed():
         raise _XatlasFailed("xatlas is not installed")
+    positions = np.asarray(scene.positions, np.float64)
+    low, high = positions.min(axis=0), positions.max(axis=0)
+    extent = float(np.max(high - low))
+    if not (math.isfinite(extent) and extent > 0):
+        raise PatchlightError(f"{scene.label}: its positions span {extent:g} m; they must be finite and not all equal")
+    source = io.BytesIO()
+    np.savez(source, positions=((positions - 0.5 * (low + high)) / extent).astype(np.float32),
+             indices=np.asarray(scene.indices, np.uint32), padding=int(padding),
+             texels_per_unit=float(texels_per_unit) * extent, resolution=int(resolution or 0))
     timeout = CHILD_TIMEOUT_BASE_S + CHILD_TIMEOUT_PER_TRIANGLE_S * scene.n_triangles
     child = Path(__file__).with_name("_xatlas_child.py")
-    with tempfile.TemporaryDirectory(prefix="patchlight-xatlas-") as folder:
-        source, target = os.path.join(folder, "in.npz"), os.path.join(folder, "out.npz")
-        np.savez(source, positions=np.asarray(scene.positions, np.float32),
-                 indices=np.asarray(scene.indices, np.uint32), padding=int(padding),
-                 texels_per_unit=float(texels_per_unit), resolution=int(resolution or 0))
-        try:
-            run = subprocess.run([sys.executable, str(child), source, target], capture_output=True,
-                                 text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise _XatlasFailed(f"xatlas took longer than {timeout:.0f} s") from None
-        if run.returncode < 0:
-            raise _XatlasFailed(f"xatlas crashed ({_signal_name(-run.returncode)})")
-        if run.returncode != 0 or not os.path.exists(target):
-            last = (run.stderr.strip().splitlines() or ["no message"])[-1]
-            raise _XatlasFailed(f"xatlas failed (exit status {run.returncode}: {last})")
-        with np.load(target) as data:
-            if data["indices"].shape != (scene.n_triangles, 3):
-                raise _XatlasFailed(f"xatlas returned {len(data['indices'])} of {scene.n_triangles} triangles")
-            return _Packing(vmapping=data["vmapping"].astype(np.int64), indices=data["indices"].astype(np.int32),
-                            uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
-                            height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]),
-                            charts=int(data["charts"]))
+    try:
+        run = subprocess.run([sys.executable, str(child), str(os.getpid())], input=source.getvalue(),
+                             capture_output=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise _XatlasFailed(f"xatlas took longer than {timeout:.0f} s") from None
+    if run.returncode < 0:
+        raise _XatlasFailed(f"xatlas crashed ({_signal_name(-run.returncode)})")
+    if run.returncode != 0:
+        last = (run.stderr.decode(errors="replace").strip().splitlines() or ["no message"])[-1]
+        raise _XatlasFailed(f"xatlas failed (exit status {run.returncode}: {last})")
+    with np.load(io.BytesIO(run.stdout)) as data:
+        if data["indices"].shape != (scene.n_triangles, 3):
+            raise _XatlasFailed(f"xatlas returned {len(data['indices'])} of {scene.n_triangles} triangles")
+        return _Packing(vmapping=data["vmapping"].astype(np.int64), indices=data["indices"].astype(np.int32),
+                        uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
+                        height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]) / extent,
+                        charts=int(data["charts"]))
 
 
 def _xatlas_installed():

@@ -1,44 +1,39 @@
-"""`patchlight` command line: one module per subcommand, each with register(subparsers).
+"""`patchlight` command line (the parser is `cli/parser.py`, one module per subcommand).
 
-User errors (PatchlightError) print one line and exit 2; Ctrl-C exits 130 after the
-subcommand has cleaned up.
+User errors (PatchlightError) print one line and exit 2. SIGINT (Ctrl-C) and SIGTERM are
+handled from the first instant (this module imports nothing heavy; `patchlight` loads its
+names on first use): either one raises KeyboardInterrupt wherever the program is, the
+subcommand cleans up, and the exit status is 128 + the signal (130, 143), after one line.
 """
 from __future__ import annotations
 
-import argparse
-import re
+import signal
 import sys
-
-from ..errors import PatchlightError
-
-SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors, and coordinates such as `-3.2,2,4` taken as values
-    (argparse 3.11 takes only a plain negative number for one)."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r"^-\.?\d")
-
-    def error(self, message):  # argparse's own usage errors also exit 2, in one line
-        self.exit(2, f"patchlight: error: {message}\n")
-
-
-def build_parser() -> argparse.ArgumentParser:
-    import importlib
-
-    parser = _Parser(prog="patchlight", description="Baked radiosity lightmaps, light volumes, ground "
-                     "maps and the classic real-time lighting models, on the CPU. "
-                     "`patchlight COMMAND --help` for each command.")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for name in SUBCOMMANDS:
-        importlib.import_module(f"patchlight.cli.{name}").register(sub)
-    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    received = []
+    previous = _handle_stop_signals(received)
+    try:
+        return _run(argv)
+    except BaseException as exc:
+        # a signal's KeyboardInterrupt raised inside a numba dispatcher surfaces as a
+        # SystemError ("returned a result with an exception set"), so any exception counts
+        number = received[0] if received else signal.SIGINT if isinstance(exc, KeyboardInterrupt) else None
+        if number is None:
+            raise
+        word = "interrupted" if number == signal.SIGINT else "terminated"
+        print(f"patchlight: {word}; nothing partial was written", file=sys.stderr)
+        return 128 + number
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _run(argv: list[str] | None) -> int:
+    from ..errors import PatchlightError
+    from .parser import build_parser
+
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as exc:  # usage errors and --help, already printed
@@ -48,9 +43,39 @@ def main(argv: list[str] | None = None) -> int:
     except PatchlightError as exc:
         print(f"patchlight: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("patchlight: interrupted; nothing partial was written", file=sys.stderr)
-        return 130
+
+
+def _handle_stop_signals(received: list) -> dict:
+    """SIGINT and SIGTERM raise KeyboardInterrupt once and record their number; a second one
+    while the first is being cleaned up is ignored. A signal landing in code that would
+    swallow the exception comes again 5 ms later (SIGALRM). Returns the handlers it replaced."""
+    pending = []
+
+    def stop(number, frame):
+        if received:
+            return
+        if _swallows(frame):
+            pending[:] = [number]
+            signal.setitimer(signal.ITIMER_REAL, 0.005)
+            return
+        received.append(number)
+        raise KeyboardInterrupt
+
+    def again(_, frame):
+        stop(pending[0], frame)
+
+    handlers = {signal.SIGINT: stop, signal.SIGTERM: stop, signal.SIGALRM: again}
+    try:
+        return {number: signal.signal(number, handler) for number, handler in handlers.items()}
+    except ValueError:  # not the main thread (main() called from a test's thread): no handlers
+        return {}
+
+
+def _swallows(frame) -> bool:
+    """Whether an exception raised in `frame` could be dropped: code that C calls back
+    (llvmlite's object-cache callbacks while numba loads a kernel, import-lock callbacks)."""
+    name = frame.f_code.co_filename if frame is not None else ""
+    return "llvmlite" in name or name.startswith("<frozen importlib")
 
 
 if __name__ == "__main__":

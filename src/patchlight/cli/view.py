@@ -1,7 +1,8 @@
 """`patchlight view SCENE_OR_BAKE_DIR [--port N]`: the runtime lighting models in the browser.
 
 Serves the viewer on 127.0.0.1 only (a free port unless --port), prints the address and
-runs until Ctrl-C. The page runs the same GLSL chunks the CPU renderer's reference mirrors."""
+runs until Ctrl-C or SIGTERM (exit status 130). The page runs the same GLSL chunks the CPU
+renderer's reference mirrors."""
 from __future__ import annotations
 
 import argparse
@@ -50,7 +51,6 @@ def run(args) -> int:
         stop_now(server)
     finally:
         server.httpd.server_close()
-    return 0
 
 
 def stop_now(server) -> None:
@@ -62,5 +62,5 @@ def stop_now(server) -> None:
     server.httpd.server_close()
     print("\npatchlight viewer stopped", flush=True)
     sys.stderr.flush()
-    os._exit(0)
+    os._exit(130)
 

@@ -5,7 +5,9 @@ sees them on the axes that point into it; those values are meaningless, and a mo
 beside the wall interpolates between them and the probes in the room. So each invalid value
 (probe, axis) takes the mean of the valid values of the same axis among the probe's 26
 neighbours, weighted by 1 / distance^2 in grid steps (faces 1, edges 1/2, corners 1/3).
-Rings grow inwards until every value is known.
+Rings grow inwards until every value is known: at most the grid's longest side in rings, as
+each ring reaches one probe further. A value no ring reaches (an axis with no valid value
+anywhere in the grid) takes the mean of every known value.
 
 A probe with some valid axes (on a wall's face) has an open side, the mean direction of
 its rays that met no back face: only neighbours within OPEN_SIDE_ANGLE of it count, so a
@@ -45,12 +47,16 @@ def fill_invalid(cube: np.ndarray, invalid: np.ndarray, open_side: np.ndarray) -
     known = ~invalid
     if not known.any():
         raise PatchlightError("every probe lies inside geometry: move --bounds into the open part of the scene")
+    if not np.isfinite(cube[known]).all():
+        raise PatchlightError("probe values are not finite: the lightmap, sky or lights hold NaN or infinity")
     values = np.where(known[..., None], cube, 0.0).astype(np.float32)
     inside = invalid.all(axis=0)  # (NZ, NY, NX)
     side = [_side_weight(open_side, offset) * ~inside for offset in _NEIGHBOURS]  # inside: no open side
     _, nz, ny, nx = known.shape
     scale = float((values @ LUMINANCE)[known].mean()) or 1.0  # luminances relative to the mean known one
-    while not known.all():
+    for _ in range(max(nz, ny, nx)):
+        if known.all():
+            break
         # unknown values hold zeros, so they add nothing to the sums
         padded_known = np.pad(known.astype(np.float32), ((0, 0), (1, 1), (1, 1), (1, 1)))
         padded_values = np.pad(values, ((0, 0), (1, 1), (1, 1), (1, 1), (0, 0)))
@@ -72,6 +78,7 @@ def fill_invalid(cube: np.ndarray, invalid: np.ndarray, open_side: np.ndarray) -
         new = ~known & (weight > 0)
         values[new] = total[new] / weight[new][:, None]
         known = known | new
+    values[~known] = values[known].mean(axis=0)  # unreached: no valid value on that axis anywhere
     return values
 
 

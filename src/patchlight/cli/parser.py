@@ -1,0 +1,30 @@
+"""The `patchlight` argument parser: one module per subcommand, each with register(subparsers)."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import re
+
+SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors, and coordinates such as `-3.2,2,4` taken as values
+    (argparse 3.11 takes only a plain negative number for one)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
+
+    def error(self, message):  # argparse's own usage errors also exit 2, in one line
+        self.exit(2, f"patchlight: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="patchlight", description="Baked radiosity lightmaps, light volumes, ground "
+                     "maps and the classic real-time lighting models, on the CPU. "
+                     "`patchlight COMMAND --help` for each command.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name in SUBCOMMANDS:
+        importlib.import_module(f"patchlight.cli.{name}").register(sub)
+    return parser

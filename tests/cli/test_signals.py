@@ -1,0 +1,75 @@
+"""Ctrl-C and SIGTERM from the first instant: exit 128 + the signal, one line on stderr, no
+traceback, whether the signal lands in the imports, the argument parsing or a numba kernel."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from patchlight.cli.main import main
+
+PATCHLIGHT = str(Path(sys.executable).with_name("patchlight"))
+
+
+def caught_signals(pid: int) -> int:
+    """The process's mask of caught signals (/proc/PID/status SigCgt)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("SigCgt:"):
+            return int(line.split()[1], 16)
+    return 0
+
+
+def signalled(argv, number, delay):
+    """Run `patchlight argv`, send `number` `delay` s after its handlers are installed (its
+    SIGTERM is caught: before that, the interpreter itself is starting), return (status, stderr)."""
+    proc = subprocess.Popen([PATCHLIGHT, *argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not caught_signals(proc.pid) & (1 << (signal.SIGTERM - 1)):
+            assert proc.poll() is None and time.monotonic() < deadline, "the handlers never came"
+            time.sleep(0.002)
+        time.sleep(delay)
+        proc.send_signal(number)
+        return proc.wait(timeout=120), proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.fixture(scope="module")
+def room_bake(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bake") / "room"
+    assert main(["bake", "room", "--resolution", "64", "--quiet", "-o", str(out)]) == 0
+    return out
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1, 0.2, 0.4])
+def test_ctrl_c_while_starting_is_one_line_and_130(tmp_path, delay):
+    status, err = signalled(["bake", "room", "--resolution", "64", "-o", str(tmp_path / "out")], signal.SIGINT,
+                            delay)
+    assert status == 130 and err.strip() == "patchlight: interrupted; nothing partial was written", err
+    assert not (tmp_path / "out").exists()
+
+
+def test_sigterm_is_handled_like_ctrl_c(tmp_path):
+    status, err = signalled(["bake", "room", "--resolution", "64", "-o", str(tmp_path / "out")], signal.SIGTERM,
+                            0.3)
+    assert status == 143 and err.strip() == "patchlight: terminated; nothing partial was written", err
+
+
+@pytest.mark.parametrize("delay", [0.3, 0.5, 0.7, 0.9, 1.1])
+def test_ctrl_c_in_the_volume_kernels_is_one_line_and_130(tmp_path, room_bake, delay):
+    """The numba kernels of the probes: an interrupt raised as one returns surfaces as a
+    SystemError from the dispatcher; it still ends as a plain interrupt."""
+    out = tmp_path / "volume"
+    status, err = signalled(["volume", str(room_bake), "--rays", "256", "--quiet", "-o", str(out)], signal.SIGINT,
+                            delay)
+    if status == 0:  # finished before the signal came (an idle machine)
+        assert (out / "light_volume.json").exists()
+        return
+    assert status == 130 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists()
