@@ -5,7 +5,7 @@ together, times them, and writes the results. The CLI and the Python API both ca
 """
 from __future__ import annotations
 
-import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -272,7 +272,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
-        "change_to_come": to_come,
+        "change_to_come": to_come if math.isfinite(to_come) else None,  # None: not known yet
         "converged": to_come < settings.tolerance,
         "seconds_per_stage": dict(progress.seconds),
         "seconds_total": time.perf_counter() - start,
@@ -290,19 +290,19 @@ BAKE_STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older b
 
 def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
     """Write lightmap.exr, lightmap.png, adaptive.png, scene.glb, bake.json (and the pass
-    pictures) into out_dir as one set (`staged_output`: bake.json, written last, marks it
-    complete); returns the summary that bake.json holds."""
-    from .imaging.io import staged_output
+    pictures) into out_dir as one set (`patchlight.outputs.staged_output`: swapped in whole,
+    in one atomic step); returns the summary that bake.json holds."""
+    from .outputs import staged_output
 
-    with staged_output(out_dir, last=BAKE_MARKER, stale=BAKE_STALE) as staging:
+    with staged_output(out_dir, stale=BAKE_STALE) as staging:
         return stage_bake(result, staging, out_dir, settings)
 
 
 def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeSettings) -> dict:
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
-    markers include BAKE_MARKER and whose stale globs include BAKE_STALE; returns the summary."""
+    stale globs include BAKE_STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, write_bytes, write_exr, write_png
+    from .imaging.io import encode_png, write_exr, write_json, write_png
     from .scene.gltf import save_baked_glb
 
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
@@ -326,5 +326,5 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
         write_png(staging / name, pixels)
     save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,
                    folder=out_dir)
-    write_bytes(staging / BAKE_MARKER, json.dumps(summary, indent=2, default=float).encode())
+    write_json(staging / BAKE_MARKER, summary)
     return summary

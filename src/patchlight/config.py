@@ -3,7 +3,7 @@
 | name              | unit / type   | default        | meaning (range; typical)                                        |
 |-------------------|---------------|----------------|-----------------------------------------------------------------|
 | resolution        | texels        | None           | lightmap width = height (16..8192); None: from texels_per_unit  |
-| texels_per_unit   | texels / m    | 16             | lightmap density when UVs are made (1..1000; 8-64)              |
+| texels_per_unit   | texels / m    | 16             | lightmap density when UVs are made (0.001..10000; 8-64)         |
 | padding           | texels        | 2              | gap between UV charts (>= 2)                                    |
 | gather            | str           | "stratified"   | "hemicube" or "stratified" (measured faster to a given error)   |
 | hemicube_size     | pixels        | 32             | front face N x N, even (8..512; 32-128)                         |
@@ -37,6 +37,7 @@ GiB = 1 << 30
 FALLOFFS = ("inverse-square", "range")
 GATHERS = ("stratified", "hemicube")
 DIRECTIONAL_MODES = ("sh", "dominant")  # L1 spherical harmonics, or the dominant direction and its share
+TEXELS_PER_UNIT = (1e-3, 1e4)  # the range taken, texels per metre
 
 
 @dataclass
@@ -76,8 +77,8 @@ class BakeSettings:
         checks = [
             (self.resolution is None or (isinstance(self.resolution, int) and 16 <= self.resolution <= 8192),
              f"resolution: {self.resolution} is not a whole number of texels in 16..8192"),
-            (number(self.texels_per_unit) and self.texels_per_unit > 0,
-             f"texels per unit: {self.texels_per_unit} is not a positive number"),
+            (number(self.texels_per_unit) and TEXELS_PER_UNIT[0] <= self.texels_per_unit <= TEXELS_PER_UNIT[1],
+             f"texels per unit: {self.texels_per_unit} is not a number in {TEXELS_PER_UNIT[0]:g}..{TEXELS_PER_UNIT[1]:g}"),
             (self.gather in GATHERS, f"gather must be one of {', '.join(GATHERS)}"),
             (self.falloff in FALLOFFS, f"falloff must be one of {', '.join(FALLOFFS)}"),
             (isinstance(self.passes, int) and self.passes >= 1, "passes must be a whole number >= 1"),
@@ -93,7 +94,7 @@ class BakeSettings:
              "sun angle must lie in 0..90 degrees"),
             (self.exposure == "auto" or (number(self.exposure) and self.exposure > 0),
              "exposure must be a positive number or auto"),
-            (number(self.max_memory) and self.max_memory >= 0, "max memory must be a number >= 0"),
+            (number(self.max_memory) and 0 <= self.max_memory <= 1 << 50, "max memory must be a number of bytes in 0..2^50"),
             (isinstance(self.seed, int) and self.seed >= 0, "seed must be a whole number >= 0"),
             (self.directional in (None, *DIRECTIONAL_MODES), "directional must be sh or dominant"),
         ]

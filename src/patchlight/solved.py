@@ -83,9 +83,10 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
     """A bake directory as written by `patchlight bake`, or a scene (file or built-in name)
     baked now with `settings`. sky, when given, replaces the scene's."""
     from .imaging.io import read_exr
+    from .outputs import read_consistently
     from .scene import is_builtin, load_scene
 
-    if is_bake_dir(spec):
+    def read_bake():
         scene = load_scene(Path(spec) / "scene.glb")
         if sky is not None:
             scene.sky = sky
@@ -93,6 +94,9 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
         if scene.uv1 is None:
             raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
         return SolvedScene(scene, lightmap, str(spec))
+
+    if is_bake_dir(spec):
+        return read_consistently(spec, read_bake)  # never one bake's scene.glb with another's lightmap
     if not is_builtin(spec) and Path(spec).is_dir():
         raise PatchlightError(f"{spec}: not a complete bake (needs scene.glb, lightmap.exr and bake.json)")
     from .bake import bake

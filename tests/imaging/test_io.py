@@ -227,7 +227,10 @@ def test_read_environment_refuses_nan_and_clamps_negatives(tmp_path):
     write_exr(tmp_path / "neg.exr", rgb)
     assert read_environment(tmp_path / "neg.exr").min() == 0.0
     rgb[1, 1, 1] = np.nan
-    write_exr(tmp_path / "nan.exr", rgb)
+    with pytest.raises(PatchlightError, match="NaN"):  # patchlight writes none
+        write_exr(tmp_path / "nan.exr", rgb)
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"RGB": rgb}).write(str(tmp_path / "nan.exr"))
     with pytest.raises(PatchlightError, match="NaN"):
         read_environment(tmp_path / "nan.exr")
 

@@ -8,6 +8,8 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -159,14 +161,19 @@ def test_symlinks_leading_out_are_not_followed(tmp_path):
     assert safe_file(root, "../outside.txt") is None
 
 
-def test_bake_pictures_leading_out_or_gone_are_404(tmp_path):
-    """A picture symlinked out of the bake is not served; one deleted after start-up is a 404
-    and the server goes on serving."""
+@pytest.mark.parametrize("link", ["symlink", "hard link"])
+def test_bake_pictures_leading_out_or_gone_are_404(tmp_path, link):
+    """A picture symlinked or hard-linked out of the bake is not served (a hard link may lead
+    to any file, so none is served); one deleted after start-up is a 404 and the server goes
+    on serving."""
     target = showcase_target(4, 8)
     bake = tmp_path / "bake"
     bake.mkdir()
     (tmp_path / "outside.png").write_bytes(b"secret outside the bake")
-    (bake / "lightmap.png").symlink_to(tmp_path / "outside.png")
+    if link == "symlink":
+        (bake / "lightmap.png").symlink_to(tmp_path / "outside.png")
+    else:
+        os.link(tmp_path / "outside.png", bake / "lightmap.png")
     (bake / "pass_01.png").write_bytes(encode_png(np.zeros((2, 2, 3), np.uint8)))
     target.bake_dir = bake
     with make_server(target, target_settings(target), exposure=1.0) as srv:
@@ -176,6 +183,28 @@ def test_bake_pictures_leading_out_or_gone_are_404(tmp_path):
         (bake / "pass_01.png").unlink()
         assert get(srv, "/scene/files/pass_01.png")[0] == 404
         assert get(srv, "/scene/manifest.json")[0] == 200
+
+
+@pytest.mark.parametrize("path, expected", [
+    ("/static/" + "a" * 256, 404), ("/scene/files/" + "b" * 300 + ".png", 404), ("/static/" + "c/" * 900, 404),
+    ("/static/" + "%41" * 300, 404), ("/" + "d" * 5000, 414), ("/static/" + "e" * 3000, 414)])
+def test_long_or_odd_paths_are_answered(server, path, expected):
+    assert get(server, path)[0] == expected
+    assert get(server, "/scene/manifest.json")[0] == 200  # and the server goes on
+
+
+def test_fifty_parallel_clients_are_all_answered(server):
+    """50 clients on 127.0.0.1 at once, 4 requests each, within a bounded time: every one gets
+    its 200 (the standard backlog of 5 dropped some)."""
+    barrier = threading.Barrier(50)
+
+    def client(_):
+        barrier.wait(timeout=30)
+        return [get(server, "/scene/manifest.json")[0] for _ in range(4)]
+
+    with ThreadPoolExecutor(50) as pool:
+        statuses = [s for result in pool.map(client, range(50), timeout=120) for s in result]
+    assert statuses == [200] * 200
 
 
 def test_a_port_in_use_is_a_one_line_error():

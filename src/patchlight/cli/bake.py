@@ -2,24 +2,26 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from ..config import DIRECTIONAL_MODES, FALLOFFS, GATHERS, BakeSettings
 from ..errors import PatchlightError
+from ..scene.model import MAX_LIGHT
+from .parser import finite_number, writes_output
 
 DEFAULTS = BakeSettings()
+MAX_MEMORY_GIB = 1 << 20
 
 
 def parse_rgb(text: str) -> tuple[float, float, float]:
-    """'R,G,B' -> three finite non-negative floats, or a one-line error."""
+    """'R,G,B' -> three floats in 0..MAX_LIGHT, or a one-line error."""
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != 3 or not all(0 <= v < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"expected R,G,B (three non-negative numbers), got {text!r}")
+    if len(values) != 3 or not all(0 <= v <= MAX_LIGHT for v in values):
+        raise argparse.ArgumentTypeError(f"expected R,G,B (three numbers in 0..{MAX_LIGHT:g}), got {text!r}")
     return values
 
 
@@ -32,7 +34,7 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
     sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
     p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff,
                    help="point/spot falloff for lights that name none (default %(default)s)")
-    p.add_argument("--sun-angle", type=float, metavar="DEG", help="sun's angular diameter, soft shadows")
+    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help="sun's angular diameter, soft shadows")
 
 
 def register(sub) -> None:
@@ -40,24 +42,24 @@ def register(sub) -> None:
     p.add_argument("scene", help="a .glb/.gltf file or a built-in scene: room, cornell")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
     add_bake_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=writes_output(run))
 
 
 def add_bake_options(p: argparse.ArgumentParser) -> None:
     add_scene_options(p)
     size = p.add_mutually_exclusive_group()
     size.add_argument("--resolution", type=int, metavar="N", help="lightmap width = height in texels (16..8192)")
-    size.add_argument("--texels-per-unit", type=float, default=DEFAULTS.texels_per_unit, metavar="T")
+    size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T")
     p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather)
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
     p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
-    p.add_argument("--tolerance", type=float, default=DEFAULTS.tolerance,
+    p.add_argument("--tolerance", type=finite_number, default=DEFAULTS.tolerance,
                    help="stop when the largest relative change still to come is below (default %(default)s)")
-    p.add_argument("--accuracy", type=float, default=DEFAULTS.accuracy,
+    p.add_argument("--accuracy", type=finite_number, default=DEFAULTS.accuracy,
                    help="adaptive sampling, final run: gather where neighbours differ by more than "
                         "accuracy^spacing (default %(default)s)")
-    p.add_argument("--first-accuracy", type=float, default=DEFAULTS.first_accuracy,
+    p.add_argument("--first-accuracy", type=finite_number, default=DEFAULTS.first_accuracy,
                    help="adaptive sampling, first run, for the first passes (default %(default)s)")
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
     p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
@@ -69,7 +71,8 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
                    help="leave UV chart seams as solved (default: texels across a seam made to agree)")
     p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster: its head's HOST:PORT, auto, or local")
     p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
-    p.add_argument("--max-memory", type=float, default=DEFAULTS.max_memory / 2**30, metavar="GiB")
+    p.add_argument("--max-memory", type=finite_number, default=DEFAULTS.max_memory / 2**30, metavar="GiB",
+                   help=f"most memory the form factors may keep, 0..{MAX_MEMORY_GIB} (default %(default)s)")
     p.add_argument("--seed", type=int, default=DEFAULTS.seed)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the bake summary as JSON on stdout")
@@ -83,6 +86,8 @@ def settings_from_args(args) -> BakeSettings:
             exposure = float(exposure)
         except ValueError:
             raise PatchlightError(f"--exposure must be a number or auto, got {exposure!r}") from None
+    if not 0 <= args.max_memory <= MAX_MEMORY_GIB:
+        raise PatchlightError(f"--max-memory {args.max_memory:g}: must lie in 0..{MAX_MEMORY_GIB} GiB")
     settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
                             gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
@@ -123,7 +128,7 @@ def load_lit_scene(args):
 def run(args) -> int:
     from ..bake import bake, write_bake
 
-    from ..imaging.io import check_output_dir
+    from ..imaging.io import check_output_dir, json_text
 
     settings = settings_from_args(args)
     check_output_dir(args.output)
@@ -131,8 +136,7 @@ def run(args) -> int:
     result = bake(scene, settings, quiet=args.quiet or args.json)
     summary = write_bake(result, args.output, settings)
     if args.json:
-        json.dump(summary, sys.stdout, indent=2, default=float)
-        print()
+        print(json_text(summary, "bake summary"))
     elif not args.quiet:
         s = summary
         print(f"baked {s['patches']} patches ({s['computed_patches']} computed, "

@@ -19,6 +19,7 @@ from pathlib import Path
 from ..errors import PatchlightError
 from ..scene import is_builtin
 from .bake import add_scene_options, sky_from_args
+from .parser import finite_number, writes_output
 
 DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
 LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this many texels
@@ -36,24 +37,24 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
     p.add_argument("--area", metavar="X0,Z0,X1,Z1", help="metres covered by the map (default: the level, squared)")
     p.add_argument("--size", type=int, default=d.size, metavar="N", help="map width = height (default %(default)s)")
-    p.add_argument("--max-height", type=float, default=d.max_height, metavar="H",
+    p.add_argument("--max-height", type=finite_number, default=d.max_height, metavar="H",
                    help="leave out polygons more than H metres above the ground (default %(default)s)")
-    p.add_argument("--noise", type=float, default=d.noise, metavar="A", help="random noise (default %(default)s)")
+    p.add_argument("--noise", type=finite_number, default=d.noise, metavar="A", help="random noise (default %(default)s)")
     p.add_argument("--shadows", choices=ENCODINGS, default=d.shadows,
                    help="separate maps, shadow in alpha, or folded into one RGB map (default %(default)s)")
     p.add_argument("--seed", type=int, default=d.seed, help="noise seed (default %(default)s)")
-    p.add_argument("--offset-distance", type=float, default=d.offset, metavar="M",
+    p.add_argument("--offset-distance", type=finite_number, default=d.offset, metavar="M",
                    help="runtime sample offset distance, metres, recorded in the json (default %(default)s)")
     p.add_argument("--offset-mode", choices=OFFSET_MODES, default=d.offset_mode, metavar="normal|side|none",
                    help="runtime offset mode recorded in the json as render's and view's default: along the "
                         "normal, its left-right part only, or none (default %(default)s)")
-    p.add_argument("--texels-per-unit", type=float, metavar="T",
+    p.add_argument("--texels-per-unit", type=finite_number, metavar="T",
                    help=f"lightmap density when baking a scene here (default {DENSE_TEXELS_PER_UNIT:g}, "
                         f"or less so the level spans {LEVEL_TEXELS} texels)")
     add_scene_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress or summary")
     p.add_argument("--json", action="store_true", help="print groundmap.json on stdout")
-    p.set_defaults(func=run)
+    p.set_defaults(func=writes_output(run))
 
 
 def settings_from_args(args):

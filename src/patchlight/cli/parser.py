@@ -2,8 +2,35 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
+import math
 import re
+
+def finite_number(text: str) -> float:
+    """An argparse type: a finite float (argparse's float takes nan and inf)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def writes_output(run):
+    """A subcommand's run(args) holding the writers' lock of args.output from the start
+    (`patchlight.outputs.output_lock`), so a second writer into that folder stops at once."""
+
+    @functools.wraps(run)
+    def locked(args):
+        from ..outputs import output_lock
+
+        with output_lock(args.output):
+            return run(args)
+
+    return locked
+
 
 SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
 

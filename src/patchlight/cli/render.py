@@ -14,18 +14,22 @@ from ..config import FALLOFFS
 from ..shading.models import MODELS
 from ..shading.hemisphere_radiosity import OFFSET_MODES
 from .bake import parse_rgb, sky_from_args
+from .parser import finite_number
 
 MAX_SIZE = 16384
+MAX_PIXELS = 1 << 24  # 4096 x 4096: the renderer keeps ~100 bytes per pixel, several times over
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """'WxH' -> (width, height), each in 1..MAX_SIZE."""
+    """'WxH' -> (width, height), each in 1..MAX_SIZE, at most MAX_PIXELS in all."""
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected WxH, e.g. 1024x768, got {text!r}") from None
     if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
         raise argparse.ArgumentTypeError(f"{text}: width and height must lie in 1..{MAX_SIZE}")
+    if width * height > MAX_PIXELS:
+        raise argparse.ArgumentTypeError(f"{text}: more than {MAX_PIXELS} pixels (4096x4096)")
     return width, height
 
 
@@ -45,7 +49,7 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
                      help="replace the scene's sky: an equirectangular .exr or .hdr")
     p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
                    help="ambient incident light (default: from the sky, else 0.05 grey)")
-    p.add_argument("--reflectivity", type=float, metavar="K", help="envmap reflectivity of every material (0..1)")
+    p.add_argument("--reflectivity", type=finite_number, metavar="K", help="envmap reflectivity of every material (0..1)")
     p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
     p.add_argument("--normal-map", nargs="?", const=True, default=False, type=Path, metavar="PNG",
                    help="tangent-space normal maps, colour alpha as gloss: the materials' own, or this image "

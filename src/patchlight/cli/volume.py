@@ -6,7 +6,6 @@ first), the sky, and the lights through shadow rays. Writes DIR/light_volume.jso
 format in patchlight.volumes.io), DIR/light_volume.bin (data) and DIR/volume.json (stats)."""
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -14,6 +13,7 @@ from ..errors import PatchlightError
 from ..scene import is_builtin
 from ..volumes.probes import MAX_SEED, VolumeSettings
 from .bake import add_scene_options, sky_from_args
+from .parser import finite_number, writes_output
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
 STATS = "volume.json"
@@ -35,7 +35,7 @@ def register(sub) -> None:
                    help="a bake directory, a .glb/.gltf file or a built-in scene (room, cornell)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--spacing", type=float, metavar="M",
+    size.add_argument("--spacing", type=finite_number, metavar="M",
                       help=f"metres between probes (default: the longest side / {DEFAULT_PROBES_ALONG_LONGEST - 1})")
     size.add_argument("--dims", metavar="NX,NY,NZ", help="probe counts along X, Y and Z")
     p.add_argument("--bounds", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box to fill with probes (default: the scene's bounds)")
@@ -47,7 +47,7 @@ def register(sub) -> None:
     add_scene_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print volume.json on stdout")
-    p.set_defaults(func=run)
+    p.set_defaults(func=writes_output(run))
 
 
 def load_solved_from_args(args, quiet: bool):
@@ -78,7 +78,8 @@ def choose_grid(args, scene):
 
 
 def run(args) -> int:
-    from ..imaging.io import check_output_dir, staged_output
+    from ..imaging.io import check_output_dir, json_text, write_json
+    from ..outputs import staged_output
     from ..volumes import bake_volume, write_volume
     from ..volumes.io import DATA, HEADER
 
@@ -94,12 +95,11 @@ def run(args) -> int:
     volume, stats = bake_volume(solved, grid, settings, quiet=quiet)
     stats["layout"] = "compact" if args.compact else "full"
     stats["files"] = [DATA, HEADER, STATS]
-    with staged_output(args.output, HEADER) as staging:  # the header, which names the rest, moves in last
-        (staging / STATS).write_text(json.dumps(stats, indent=2, default=float))
+    with staged_output(args.output) as staging:
+        write_json(staging / STATS, stats)
         write_volume(staging, volume, stats["layout"])
     if args.json:
-        json.dump(stats, sys.stdout, indent=2, default=float)
-        print()
+        print(json_text(stats, "volume statistics"))
     elif not args.quiet:
         nx, ny, nz = grid.dims
         print(f"baked {grid.count} probes ({nx} x {ny} x {nz}, {stats['inside_geometry_probes']} inside geometry) "

@@ -32,7 +32,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import PatchlightError
-from ..imaging.io import decode_image, read_bytes, write_bytes, write_png
+from ..imaging.io import decode_image, read_bytes, write_bytes, write_json, write_png
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 
 MANIFEST = "groundmap.json"
@@ -112,18 +112,8 @@ def write_map_files(out_dir: Path, stem: str, pixels: np.ndarray) -> dict:
 
 def write_manifest(out_dir: Path, manifest: dict) -> Path:
     path = out_dir / MANIFEST
-    write_bytes(path, (json.dumps(manifest, indent=2, default=_plain) + "\n").encode())
+    write_json(path, manifest)
     return path
-
-
-def _plain(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"cannot store {type(value).__name__} in {MANIFEST}")
 
 
 def is_groundmap_dir(path) -> bool:

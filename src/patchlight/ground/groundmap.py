@@ -37,8 +37,9 @@ from ..scene.model import Scene
 from ..shading.hemisphere_radiosity import OFFSET_MODES
 from ..solved import SolvedScene, is_bake_dir
 from . import encode as enc
-from ..imaging.io import staged_output, write_png
-from .files import FORMAT, MANIFEST, VERSION, to_bytes, write_manifest, write_map_files
+from ..imaging.io import write_png
+from ..outputs import staged_output
+from .files import FORMAT, VERSION, to_bytes, write_manifest, write_map_files
 from .mapping import GroundArea, check_size, square_area
 from .picture import Footprint, cast_down, look_down, sun_shadow, the_sun
 from .prepare import MapGeometry, ground_below, prepare_map_geometry
@@ -276,12 +277,10 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         bake_dir = os.path.relpath(ground_map.bake_dir, out_dir.resolve())
     elif bake_dir is None:
         warnings.append(NO_BAKE)
-    from ..bake import BAKE_MARKER, BAKE_STALE, stage_bake
+    from ..bake import BAKE_STALE, stage_bake
 
-    markers, stale = (MANIFEST,), STALE_FILES
-    if bake is not None:
-        markers, stale = (BAKE_MARKER, MANIFEST), STALE_FILES + BAKE_STALE
-    with staged_output(out_dir, markers, stale=stale) as staging:
+    stale = STALE_FILES + (BAKE_STALE if bake is not None else ())
+    with staged_output(out_dir, stale=stale) as staging:
         files = {"color": write_map_files(staging, "groundmap", to_bytes(e.color))}
         if e.shadow is not None:
             files["shadow"] = write_map_files(staging, "shadow", _grey(e.shadow))

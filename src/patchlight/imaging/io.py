@@ -16,6 +16,7 @@ every reader turns a missing, unreadable or corrupt file into `PatchlightError("
 from __future__ import annotations
 
 import io
+import json
 import os
 import secrets
 from contextlib import contextmanager
@@ -73,51 +74,42 @@ def check_output_dir(path) -> Path:
     return path
 
 
-@contextmanager
-def staged_output(out_dir, last: str | tuple[str, ...], stale: tuple[str, ...] = ()) -> Iterator[Path]:
-    """Yield a staging directory for a set of files that belong together (a bake).
-
-    On success they move into `out_dir` (made if need be), each rename atomic: `last` (the
-    file that marks the set complete, e.g. bake.json, or several such markers, e.g. a bake's
-    and a ground map's, in order) is removed first and moved in last, and files of an older
-    set matching the `stale` globs are removed, so a reader never meets a complete-looking
-    mixture of two sets. If the body raises (Ctrl-C included), the staging directory goes
-    and `out_dir` is untouched.
-    """
-    markers = (last,) if isinstance(last, str) else tuple(last)
-    out = check_output_dir(out_dir)
-    nearest = out.parent
-    while not nearest.exists():
-        nearest = nearest.parent
-    staging = nearest / f".{out.name}.partial-{os.getpid()}-{secrets.token_hex(4)}"
-    try:
-        staging.mkdir()
-        yield staging
-        out.mkdir(parents=True, exist_ok=True)
-        for marker in markers:
-            (out / marker).unlink(missing_ok=True)
-        for pattern in stale:
-            for old in out.glob(pattern):
-                if not (staging / old.name).exists():
-                    old.unlink()
-        for item in sorted(staging.iterdir()):
-            if item.name not in markers:
-                os.replace(item, out / item.name)
-        for marker in markers:
-            os.replace(staging / marker, out / marker)
-    except OSError as exc:
-        raise PatchlightError(f"{out}: cannot write ({exc.strerror or exc})") from exc
-    finally:
-        for item in staging.glob("*"):
-            item.unlink()
-        if staging.exists():
-            staging.rmdir()
-
-
 def write_bytes(path, data: bytes) -> None:
     """Write `data` to `path` atomically."""
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+def check_finite(values: np.ndarray, where: str) -> None:
+    """PatchlightError naming `where` when an array about to be written holds NaN or infinity."""
+    bad = np.count_nonzero(~np.isfinite(values))
+    if bad:
+        raise PatchlightError(f"{where}: {bad} values to write are NaN or infinite; nothing was written")
+
+
+def json_text(value, where: str, indent: int | None = 2) -> str:
+    """Strict JSON (NumPy numbers and arrays as plain ones, paths as strings): PatchlightError
+    naming `where` for a NaN or infinity, which JSON has no token for (parsers refuse Infinity)."""
+    try:
+        return json.dumps(value, indent=indent, allow_nan=False, default=_plain,
+                          separators=None if indent else (",", ":"))
+    except ValueError:
+        raise PatchlightError(f"{where}: a value to write is NaN or infinite; nothing was written") from None
+
+
+def write_json(path, value) -> None:
+    """Write `value` as strict JSON (`json_text`) to `path` atomically."""
+    write_bytes(path, (json_text(value, str(path)) + "\n").encode())
+
+
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"cannot write {type(value).__name__} as JSON")
 
 
 def require_file(path) -> Path:
@@ -160,6 +152,7 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
         pixels = np.asarray(rgb, np.float32)
         if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
             raise ValueError(f"write_exr wants (H, W, 3) images, got shape {pixels.shape}")
+        check_finite(pixels, f"{path} layer {name or 'RGB'}")
         for c, letter in enumerate("RGB"):
             channels[f"{name}.{letter}" if name else letter] = np.ascontiguousarray(pixels[..., c])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,

@@ -86,7 +86,7 @@ import pygltflib as gl
 
 from ..errors import PatchlightError
 from ..imaging.color import linear_to_srgb, srgb_to_linear
-from ..imaging.io import atomic_path, decode_image, encode_png, read_bytes, read_environment
+from ..imaging.io import atomic_path, check_finite, decode_image, encode_png, json_text, read_bytes, read_environment
 from .model import Light, Material, Provenance, Scene, vertex_normals
 from .sky import Sky
 
@@ -857,6 +857,7 @@ class _GlbWriter:
     def accessor(self, array: np.ndarray, kind: str, target: int, bounds: bool = False) -> int:
         """A float32 vertex attribute or a uint32 index list, tightly packed."""
         array = np.ascontiguousarray(array)
+        check_finite(array, f"scene.glb {kind} attribute")
         accessor = gl.Accessor(bufferView=self.view(array.tobytes(), target), count=len(array), type=kind,
                                componentType=_FLOAT if array.dtype == np.float32 else _UINT)
         if bounds:  # POSITION must carry its bounds
@@ -1344,6 +1345,7 @@ class _SourceWriter:
                      bounds: bool = False) -> int:
         """values (n, width) in the component type; vertex attributes padded to 4-byte elements."""
         values = np.ascontiguousarray(values)
+        check_finite(values, f"{self.path.name}: a {kind} attribute")
         element = values.shape[1] * values.itemsize
         stride = None
         if vertex and element % 4:
@@ -1454,7 +1456,7 @@ class _SourceWriter:
         for key in ("accessors", "bufferViews", "meshes", "nodes", "images", "textures", "samplers"):
             if not self.raw[key]:  # glTF forbids empty top-level arrays
                 del self.raw[key]
-        text = json.dumps(self.raw, separators=(",", ":")).encode("utf-8")
+        text = json_text(self.raw, "scene.glb", indent=None).encode("utf-8")
         text += b" " * (-len(text) % 4)
         chunks = struct.pack("<II", len(text), _CHUNK_JSON) + text
         if blob:

@@ -5,6 +5,7 @@ only these arrays. Units: metres, +Y up, linear RGB; light units as docs/archite
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,6 +39,18 @@ class Material:
         return bool(np.any(self.emissive > 0))
 
 
+MAX_LIGHT = 1e12  # the largest radiance, irradiance or intensity taken: sums stay finite in float32
+
+
+def check_light_values(values, what: str) -> None:
+    """PatchlightError unless every value is a finite number in 0..MAX_LIGHT."""
+    values = np.asarray(values, np.float64)
+    ok = np.isfinite(values) & (values >= 0) & (values <= MAX_LIGHT)
+    if not ok.all():
+        bad = values[~ok].flat[0]
+        raise PatchlightError(f"{what}: {bad:g} is not a number in 0..{MAX_LIGHT:g}")
+
+
 @dataclass
 class Light:
     """A KHR_lights_punctual light in radiometric units.
@@ -61,6 +74,15 @@ class Light:
     falloff: str | None = None
     angle: float = 0.0
     name: str = ""
+
+    def validate(self, where: str) -> None:
+        """One line naming the light when a value is not finite or out of its range."""
+        what = f"{where}: light {self.name or self.kind!r}"
+        check_light_values(np.asarray(self.color, np.float64) * self.intensity, f"{what} colour x intensity")
+        geometry = np.concatenate([np.ravel(self.position), np.ravel(self.direction),
+                                   [self.inner_cone, self.outer_cone, self.angle]]).astype(np.float64)
+        if not np.all(np.isfinite(geometry)) or not (self.range is None or 0 < self.range < math.inf):
+            raise PatchlightError(f"{what}: its position, direction, range or angles are not finite numbers")
 
     @property
     def radiometric(self) -> np.ndarray:
@@ -158,7 +180,14 @@ class Scene:
         return lamps or emissive or sky_lit
 
     def validate(self) -> None:
-        """Refuse NaN or infinite positions and out-of-range indices with one clear line."""
+        """Refuse NaN or infinite positions, out-of-range indices, and light values (lamps,
+        emission, sky) that are not finite or beyond MAX_LIGHT, with one clear line."""
+        for light in self.lights:
+            light.validate(self.label)
+        for material in self.materials:
+            check_light_values(material.emissive, f"{self.label}: material {material.name!r} emission")
+        if self.sky is not None:
+            self.sky.validate(self.label)
         if not np.all(np.isfinite(self.positions)):
             bad = int(np.count_nonzero(~np.isfinite(self.positions).all(axis=1)))
             raise PatchlightError(f"{self.label}: {bad} vertex positions are NaN or infinite")

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .model import check_light_values
+
 
 def _rgb(value) -> np.ndarray:
     arr = np.asarray(value, np.float32).reshape(3)
@@ -50,6 +52,10 @@ class Sky:
     def from_image(cls, image: np.ndarray, source=None) -> "Sky":
         return cls("image", np.zeros((3, 3), np.float32), np.ascontiguousarray(image[..., :3], np.float32),
                    None if source is None else str(source))
+
+    def validate(self, where: str) -> None:
+        """One line when a radiance is not finite or out of range (`check_light_values`)."""
+        check_light_values(self.image if self.kind == "image" else self.colors, f"{where}: sky radiance")
 
     def is_black(self) -> bool:
         if self.kind == "image":

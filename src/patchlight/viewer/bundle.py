@@ -19,11 +19,11 @@ cube) that the reference shades. Arrays are little-endian float32 (indices uint3
 """
 from __future__ import annotations
 
-import json
 
 import numpy as np
 
 from ..ground.viewer import radiosity_bundle
+from ..imaging.io import json_text
 from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
@@ -118,12 +118,4 @@ def _directional_bundle(pack: _Packer, directional) -> dict | None:
 
 def manifest_bytes(manifest: dict) -> bytes:
     """The manifest as compact JSON; NumPy arrays become lists and NumPy scalars numbers."""
-    return json.dumps(manifest, separators=(",", ":"), default=_plain).encode()
-
-
-def _plain(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"cannot put {type(value).__name__} in the viewer's manifest")
+    return json_text(manifest, "viewer manifest", indent=None).encode()

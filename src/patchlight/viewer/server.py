@@ -4,7 +4,10 @@ It serves the page (static/), the GLSL chunks (patchlight/shaders/*.glsl), the t
 build files the page imports (from the repository's node_modules/three), the scene bundle
 (/scene/manifest.json, /scene/data.bin) and the bake's lightmap-space pictures
 (/scene/files/<name>). Any other path (.., absolute paths, encoded traversal, symlinks that
-lead out of the served directory, files not on the list) gets 404.
+lead out of the served directory, names too long for the file system, files not on the list,
+and bake files with more than one hard link, which may be a link to any file outside) gets
+404; a request target longer than MAX_TARGET characters gets 414. Connections queue up to
+BACKLOG deep, and a client silent for CLIENT_TIMEOUT_S seconds is dropped.
 
 Only requests addressed to the server itself are answered: a Host header other than
 127.0.0.1:PORT or localhost:PORT (or none) gets 403, so a page of another site whose name
@@ -23,6 +26,9 @@ from urllib.parse import unquote, urlsplit
 from ..errors import PatchlightError
 
 HOST = "127.0.0.1"
+MAX_TARGET = 2048       # characters in a request target; longer: 414
+BACKLOG = 128           # connections waiting to be accepted (the standard library's 5 drops some of 50)
+CLIENT_TIMEOUT_S = 10.0
 STATIC = Path(__file__).resolve().parent / "static"
 SHADERS = Path(__file__).resolve().parent.parent / "shaders"
 THREE_FILES = ("build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js")
@@ -46,16 +52,22 @@ def find_three() -> Path:
                           "(or set PATCHLIGHT_NODE_MODULES to a node_modules holding three)")
 
 
-def safe_file(root: Path, relative: str) -> Path | None:
+def safe_file(root: Path, relative: str, single_link: bool = False) -> Path | None:
     """The regular file `relative` names inside `root`, or None when the name is unsafe
-    (empty, absolute, '..' or '.' segments, backslashes, NUL) or resolves outside root."""
+    (empty, absolute, '..' or '.' segments, backslashes, NUL, too long for the file system),
+    resolves outside root, or (single_link) has other hard links."""
     if not relative or "\\" in relative or "\0" in relative or relative.startswith("/"):
         return None
     if any(part in ("", ".", "..") for part in relative.split("/")):
         return None
-    root = root.resolve()
-    candidate = (root / relative).resolve()
-    if not candidate.is_relative_to(root) or not candidate.is_file():
+    try:
+        root = root.resolve()
+        candidate = (root / relative).resolve()
+        if not candidate.is_relative_to(root) or not candidate.is_file():
+            return None
+        if single_link and candidate.stat().st_nlink != 1:
+            return None
+    except OSError:  # a name too long, a loop of links
         return None
     return candidate
 
@@ -71,12 +83,11 @@ class ViewerServer:
         self.three = find_three()
         handler = type("Handler", (_Handler,), {"viewer": self})
         try:
-            self.httpd = ThreadingHTTPServer((HOST, port), handler)
+            self.httpd = _Server((HOST, port), handler)
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
                 raise PatchlightError(f"--port {port}: {HOST}:{port} is already in use") from None
             raise PatchlightError(f"--port {port}: cannot listen on {HOST}:{port} ({exc.strerror})") from None
-        self.httpd.daemon_threads = True
         self._thread: threading.Thread | None = None
 
     @property
@@ -116,7 +127,7 @@ class ViewerServer:
             return safe_file(self.three, name)
         if prefix == "scene" and name.startswith("files/") and self.bake_dir is not None:
             picture = name[len("files/"):]
-            return safe_file(self.bake_dir, picture) if picture in self.pictures else None
+            return safe_file(self.bake_dir, picture, single_link=True) if picture in self.pictures else None
         return None
 
     def serve_forever(self) -> None:
@@ -141,9 +152,15 @@ class ViewerServer:
         self.close()
 
 
+class _Server(ThreadingHTTPServer):
+    request_queue_size = BACKLOG
+    daemon_threads = True
+
+
 class _Handler(BaseHTTPRequestHandler):
     viewer: ViewerServer
     server_version = "patchlight"
+    timeout = CLIENT_TIMEOUT_S
 
     def do_GET(self):
         self._respond(send_body=True)
@@ -154,6 +171,10 @@ class _Handler(BaseHTTPRequestHandler):
     def _respond(self, send_body: bool) -> None:
         if not self.viewer.host_allowed(self.headers.get("Host")):
             self._send(HTTPStatus.FORBIDDEN, b"forbidden: unknown Host\n", "text/plain; charset=utf-8", send_body)
+            return
+        if len(self.path) > MAX_TARGET:
+            self._send(HTTPStatus.REQUEST_URI_TOO_LONG, b"request target too long\n", "text/plain; charset=utf-8",
+                       send_body)
             return
         try:
             body, content_type = self.viewer.resolve(urlsplit(self.path).path)

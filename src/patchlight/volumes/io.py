@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PatchlightError
-from ..imaging.io import atomic_path, read_bytes
+from ..imaging.io import atomic_path, check_finite, read_bytes, write_json
 from .grid import ProbeGrid
 from .volume import AXES, LightVolume, compact, expand
 
@@ -78,6 +78,7 @@ def write_volume(out_dir, volume: LightVolume, layout: str = "full") -> dict:
     out_dir = Path(out_dir)
     sections, blobs, offset = [], [], 0
     for name, array in _sections(volume, layout):
+        check_finite(array, f"{out_dir / DATA} section {name}")
         dtype = "uint8" if array.dtype == np.uint8 else "float32"
         blob = np.ascontiguousarray(array, _DTYPES[dtype]).tobytes()
         sections.append({"name": name, "dtype": dtype, "shape": list(array.shape), "offset": offset,
@@ -88,14 +89,20 @@ def write_volume(out_dir, volume: LightVolume, layout: str = "full") -> dict:
               "units": UNITS, "layout": layout, "sampling": SAMPLING, "data": DATA, "byte_order": "little", "sections": sections}
     with atomic_path(out_dir / DATA) as tmp:
         tmp.write_bytes(b"".join(blobs))
-    with atomic_path(out_dir / HEADER) as tmp:
-        tmp.write_text(json.dumps(header, indent=2))
+    write_json(out_dir / HEADER, header)
     return header
 
 
 def read_volume(path) -> LightVolume:
-    """The volume in a directory (or named by its header file), either layout."""
+    """The volume in a directory (or named by its header file), either layout; header and
+    data of one set, read again if the folder was swapped for a new volume meanwhile."""
+    from ..outputs import read_consistently
+
     path = Path(path)
+    return read_consistently(path if path.is_dir() else path.parent, lambda: _read_volume(path))
+
+
+def _read_volume(path: Path) -> LightVolume:
     header_path = path / HEADER if path.is_dir() else path
     if path.is_dir() and not header_path.exists():
         raise PatchlightError(f"{path}: no {HEADER} in it (write one with `patchlight volume`)")

@@ -63,6 +63,8 @@ class VolumeSettings:
             raise PatchlightError(f"--rays {self.rays!r}: must lie in 1..{MAX_RAYS}")
         if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed <= MAX_SEED):
             raise PatchlightError(f"--seed {self.seed!r}: must lie in 0..{MAX_SEED}")
+        if not (self.sun_angle is None or 0 <= self.sun_angle < 90):  # False for NaN
+            raise PatchlightError(f"--sun-angle {self.sun_angle!r}: must lie in 0..90 degrees")
 
     def to_json(self) -> dict:
         return asdict(self)

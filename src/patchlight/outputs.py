@@ -1,0 +1,169 @@
+"""Output folders (a bake, a light volume, a ground map) replaced as a whole, in one atomic step.
+
+The files are written into a staging folder beside the output, `.NAME.partial-PID-HEX`;
+files of the old folder that the new set does not replace (and that do not match its
+`stale` globs) are hard-linked into it; then one `renameat2(RENAME_EXCHANGE)` swaps the two
+folders, and the old one, now under the staging name, is removed. A reader opening
+`out/room/...` thus finds the whole old set or the whole new set, at the same top-level
+paths, never a mixture, and an interrupt (or SIGKILL) at any instant leaves the old set
+whole: before the swap nothing of `out` has changed, after it the new set is complete.
+A first output is simply renamed into place.
+
+One writer at a time: `output_lock` (taken by the commands before any work, and by
+`staged_output`) lets a second writer into the same folder fail at once with one line; the
+kernel drops it when its process dies, so no lock outlives a killed run. Holding it, a run
+removes the staging folders that killed runs left behind.
+
+Readers that read several files of a folder call `read_consistently`, which re-reads when
+the folder was swapped while they read.
+"""
+from __future__ import annotations
+
+import ctypes
+import errno
+import hashlib
+import os
+import secrets
+import shutil
+import socket
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Callable, Iterator, TypeVar
+
+from .errors import PatchlightError
+
+RENAME_EXCHANGE = 2      # linux/fs.h
+AT_FDCWD = -100
+READ_ATTEMPTS = 5        # re-reads of a folder swapped while it was read
+
+_held: dict[str, int] = {}   # lock name -> depth, for the locks this process holds
+
+
+@contextmanager
+def output_lock(out_dir) -> Iterator[None]:
+    """Hold the writers' lock of output folder `out_dir`, re-entrant within this process;
+    PatchlightError when another process holds it. The lock is a Linux abstract socket
+    named after the folder's resolved path: no file, and the kernel drops it with its process."""
+    out = Path(out_dir).resolve()
+    name = "\0patchlight-output:" + hashlib.sha256(os.fsencode(out)).hexdigest()
+    if name in _held:
+        _held[name] += 1
+        try:
+            yield
+        finally:
+            _held[name] -= 1
+        return
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM | socket.SOCK_CLOEXEC) as sock:
+        try:
+            sock.bind(name)
+        except OSError as exc:
+            if exc.errno != errno.EADDRINUSE:
+                raise
+            raise PatchlightError(f"{out_dir}: another patchlight process is writing there; "
+                                  f"wait for it to end or choose another output") from None
+        _remove_stale_staging(out)
+        _held[name] = 1
+        try:
+            yield
+        finally:
+            del _held[name]
+
+
+def _remove_stale_staging(out: Path) -> None:
+    """Staging folders of runs into `out` that were killed (the lock is ours, so no live
+    process is using them)."""
+    if not out.parent.is_dir():
+        return
+    for stale in out.parent.glob(f".{out.name}.partial-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+
+
+@contextmanager
+def staged_output(out_dir, stale: tuple[str, ...] = ()) -> Iterator[Path]:
+    """Yield an empty staging folder; when the body returns, it replaces `out_dir` in one
+    atomic step (module docstring), keeping the old folder's other files except those
+    matching the `stale` globs. If the body raises (Ctrl-C included) the staging folder goes
+    and `out_dir` is untouched."""
+    from .imaging.io import check_output_dir
+
+    out = check_output_dir(out_dir).absolute()
+    with output_lock(out):
+        staging = out.parent / f".{out.name}.partial-{os.getpid()}-{secrets.token_hex(4)}"
+        made = [folder for folder in (out.parent, *out.parent.parents) if not folder.exists()]
+        done = False
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            staging.mkdir()
+            yield staging
+            if out.is_dir():
+                _carry_over(out, staging, stale)
+            _swap_in(staging, out)
+            done = True
+        except OSError as exc:
+            raise PatchlightError(f"{out_dir}: cannot write ({exc.strerror or exc})") from exc
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)  # the new set before the swap, the old after
+            for folder in made if not done else ():  # parents made for an output that never came
+                _remove_if_empty(folder)
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
+def _carry_over(out: Path, staging: Path, stale: tuple[str, ...]) -> None:
+    """Hard-link into `staging` what `out` holds beside the set: entries the staging folder
+    does not replace and that match no `stale` glob (folders as trees of links)."""
+    for entry in out.iterdir():
+        target = staging / entry.name
+        if target.exists() or target.is_symlink() or any(entry.match(pattern) for pattern in stale):
+            continue
+        if entry.is_symlink() or not entry.is_dir():
+            os.link(entry, target, follow_symlinks=False)
+        else:
+            shutil.copytree(entry, target, symlinks=True, copy_function=os.link)
+
+
+def _swap_in(staging: Path, out: Path) -> None:
+    """Make `staging` visible as `out` in one step; afterwards `staging` names the old folder
+    (or nothing)."""
+    if not out.exists():
+        os.rename(staging, out)
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.renameat2(AT_FDCWD, os.fsencode(staging), AT_FDCWD, os.fsencode(out), RENAME_EXCHANGE) == 0:
+        return
+    code = ctypes.get_errno()
+    raise OSError(code, f"cannot swap in the new output ({os.strerror(code)})")
+
+
+def folder_version(folder) -> tuple[int, int]:
+    """What changes whenever `folder` is swapped for another: (inode, ctime ns)."""
+    info = os.stat(folder)
+    return info.st_ino, info.st_ctime_ns
+
+
+def read_consistently(folder, read: Callable[[], _T]) -> _T:
+    """read() (which reads several files of `folder`), again when the folder was swapped for
+    a newer one meanwhile, so the result never pairs files of two sets."""
+    for attempt in range(READ_ATTEMPTS):
+        before = folder_version(folder)
+        try:
+            result = read()
+        except PatchlightError:
+            if attempt + 1 < READ_ATTEMPTS and _swapped(folder, before):
+                continue
+            raise
+        if not _swapped(folder, before):
+            return result
+    raise PatchlightError(f"{folder}: rewritten {READ_ATTEMPTS} times while it was read; try again")
+
+
+def _swapped(folder, before: tuple[int, int]) -> bool:
+    try:
+        return folder_version(folder) != before
+    except OSError as exc:
+        return exc.errno == errno.ENOENT
