@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import PatchlightError
+from .parser import finite_number
 from .render import parse_size
 
 
@@ -19,14 +20,14 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png")
     p.add_argument("--size", type=parse_size, default=(512, 512), metavar="WxH", help="default 512x512")
     reach = p.add_mutually_exclusive_group()
-    reach.add_argument("--distance", type=float, metavar="M",
+    reach.add_argument("--distance", type=finite_number, metavar="M",
                        help="metres each side of the low surface a ray searches (default 5%% of its diagonal)")
     reach.add_argument("--cage", type=Path, metavar="CAGE.glb",
                        help="rays run from this mesh (the low model's vertices, moved out) to the low surface")
     p.add_argument("--object-space", action="store_true", help="object-space normals instead of tangent space")
     p.add_argument("--ao", type=Path, metavar="AO.png", help="also write ambient occlusion (grey, 1 = open)")
     p.add_argument("--ao-rays", type=int, default=64, metavar="N", help="AO rays per texel (default %(default)s)")
-    p.add_argument("--ao-distance", type=float, metavar="M",
+    p.add_argument("--ao-distance", type=finite_number, metavar="M",
                    help="AO ray length (default 10%% of the high model's diagonal)")
     p.add_argument("--dilate", type=int, default=8, metavar="TEXELS",
                    help="texels filled past the map's charts (default %(default)s)")
