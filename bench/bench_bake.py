@@ -99,7 +99,7 @@ def run(name: str, settings: BakeSettings) -> None:
           f"F {s['form_factor_matrix']['nonzeros'] / 1e6:.1f} M nonzeros "
           f"({s['form_factor_matrix']['bytes'] / 2**20:.0f} MiB), {s['passes']} passes")
     for stage, seconds in s["seconds_per_stage"].items():
-        print(f"  {stage:<14} {seconds:7.3f} s")
+        print(f"  {stage:<14} {seconds:7.3f} s   CPU {100 * s['cpu_utilisation_per_stage'][stage]:3.0f} % of the cores")
     print(f"  {'total':<14} {total:7.3f} s   texels/s {s['patches'] / total:,.0f}")
     print(f"embreex alone: {n_closest / 1e6:.2f} M closest-hit rays {closest:.3f} s "
           f"({n_closest / max(closest, 1e-9) / 1e6:.2f} Mrays/s), {n_occlusion / 1e6:.2f} M occlusion rays "

@@ -275,6 +275,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "change_to_come": to_come if math.isfinite(to_come) else None,  # None: not known yet
         "converged": to_come < settings.tolerance,
         "seconds_per_stage": dict(progress.seconds),
+        "cpu_utilisation_per_stage": progress.utilisation(),
         "seconds_total": time.perf_counter() - start,
         "uv": uv_info,
         "seams": seams,

@@ -1,16 +1,25 @@
 """Progress bars for long stages: stage name, count, time left. Silent when quiet."""
 from __future__ import annotations
 
+import os
 import time
 from contextlib import contextmanager
 
 
+def _cpu_seconds() -> float:
+    """CPU seconds of this process's threads and of its finished children (xatlas runs in one)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 class Progress:
-    """One bar per stage on stderr (rich), and the seconds each stage took."""
+    """One bar per stage on stderr (rich), the seconds each stage took and the CPU seconds
+    this process (every thread, and the children it waited for) spent in it."""
 
     def __init__(self, quiet: bool = False):
         self.quiet = quiet
         self.seconds: dict[str, float] = {}
+        self.cpu_seconds: dict[str, float] = {}
         self._bar = None
 
     def __enter__(self):
@@ -37,7 +46,7 @@ class Progress:
         task = None
         if self._bar is not None:
             task = self._bar.add_task(name, total=total, note="")
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), _cpu_seconds()
 
         def advance(n: float = 1, note: str | None = None):
             if task is not None:
@@ -51,3 +60,10 @@ class Progress:
                 self._bar.update(task, completed=total, total=total)
         finally:
             self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+            self.cpu_seconds[name] = self.cpu_seconds.get(name, 0.0) + _cpu_seconds() - cpu
+
+    def utilisation(self) -> dict[str, float]:
+        """Per stage, the share of all cores this process kept busy (1 = every core, all
+        the time): CPU seconds / (seconds x cores)."""
+        cores = os.cpu_count() or 1
+        return {name: self.cpu_seconds[name] / max(seconds * cores, 1e-9) for name, seconds in self.seconds.items()}

@@ -181,13 +181,13 @@ def item_buffer_times(seen, weights, B):
     return out
 
 
-@nb.njit(cache=True, parallel=True)
-def csr_times_rgb(indptr, indices, data, B):
-    """(R, 3) f32 product of a CSR matrix (R x N, f32) with B (N, 3) f32, rows over the cores.
+@nb.njit(cache=True, nogil=True)
+def csr_times_rgb(indptr, indices, data, B, first, last):
+    """(last - first, 3) f32 product of rows first..last-1 of a CSR matrix (R x N, f32) with
+    B (N, 3) f32, on the calling thread (the caller spreads row ranges over the cores).
     Accumulates in f32: rows hold a few hundred terms, far inside its precision."""
-    rows = indptr.shape[0] - 1
-    out = np.zeros((rows, 3), np.float32)
-    for r in nb.prange(rows):
+    out = np.zeros((last - first, 3), np.float32)
+    for r in range(first, last):
         a0 = np.float32(0.0)
         a1 = np.float32(0.0)
         a2 = np.float32(0.0)
@@ -197,7 +197,7 @@ def csr_times_rgb(indptr, indices, data, B):
             a0 += w * B[c, 0]
             a1 += w * B[c, 1]
             a2 += w * B[c, 2]
-        out[r, 0] = a0
-        out[r, 1] = a1
-        out[r, 2] = a2
+        out[r - first, 0] = a0
+        out[r - first, 1] = a1
+        out[r - first, 2] = a2
     return out

@@ -16,6 +16,7 @@ from .gather import Gatherer
 
 
 ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time: the most F held beside the kept rows
+ROWS_PER_PRODUCT = 1 << 12  # rows of F B per task on the tracer's threads (one per core)
 
 
 @dataclass
@@ -67,7 +68,10 @@ class FormFactors:
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        return np.concatenate([_kernels.csr_times_rgb(F.indptr, F.indices, F.data, B) for F in self.blocks])
+        ranges = [(F, first, min(first + ROWS_PER_PRODUCT, F.shape[0]))
+                  for F in self.blocks for first in range(0, F.shape[0], ROWS_PER_PRODUCT)]
+        return np.concatenate(self.gatherer.tracer.map(
+            lambda r: _kernels.csr_times_rgb(r[0].indptr, r[0].indices, r[0].data, B, r[1], r[2]), ranges))
 
     @property
     def nnz(self) -> int:
