@@ -233,6 +233,9 @@ function bindControls(viewer, redraw) {
   $('surface-row').hidden = viewer.manifest.pictures.length === 0;
   const notes = [];
   if (!viewer.manifest.lightmap) notes.push('no lightmap: the lightmap model shows black (view a bake directory)');
+  if (viewer.manifest.lightmap && !viewer.manifest.directional) {
+    notes.push('no directional lightmap: lightmap-directional shows the plain lightmap (bake with --directional)');
+  }
   if (viewer.manifest.env_note) notes.push(viewer.manifest.env_note);
   if (viewer.manifest.lights_dropped) notes.push(`${viewer.manifest.lights_dropped} lights beyond ${viewer.maxLights} not shown`);
   $('notes').textContent = notes.join('; ');
