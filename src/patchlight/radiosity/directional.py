@@ -75,7 +75,7 @@ def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advan
     B = np.asarray(B, np.float64)
 
     def chunk(part):
-        seen, dirs = gatherer._see(part, gatherer.dirs)
+        seen, dirs = gatherer._see(part, gatherer.dirs)[:2]  # the item buffer and the directions
         radiance = np.zeros((len(seen), 3))
         hit = seen >= 0
         radiance[hit] = B[seen[hit]]
