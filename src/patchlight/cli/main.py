@@ -32,6 +32,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     from ..errors import PatchlightError
+    from ..scene.gltf import outside_files_allowed
     from .parser import build_parser
 
     try:
@@ -39,7 +40,8 @@ def _run(argv: list[str] | None) -> int:
     except SystemExit as exc:  # usage errors and --help, already printed
         return int(exc.code or 0)
     try:
-        return int(args.func(args) or 0)
+        with outside_files_allowed(getattr(args, "allow_outside_files", False)):
+            return int(args.func(args) or 0)
     except PatchlightError as exc:
         print(f"patchlight: error: {exc}", file=sys.stderr)
         return 2

@@ -33,6 +33,7 @@ def writes_output(run):
 
 
 SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
+READS_SCENES = ("bake", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,4 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in SUBCOMMANDS:
         importlib.import_module(f"patchlight.cli.{name}").register(sub)
+        if name in READS_SCENES:
+            sub.choices[name].add_argument(
+                "--allow-outside-files", action="store_true",
+                help="let the glTF's uris name files outside its folder (absolute paths, '..', links)")
     return parser

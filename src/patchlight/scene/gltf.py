@@ -9,6 +9,11 @@ transpose, winding flipped where the determinant is negative.  Primitive modes 4
 (triangles, strips, fans), indexed or not; points and lines are skipped and counted.
 Accessors may be strided, normalized integers (KHR_mesh_quantization) or sparse.
 
+Files behind buffer and image uris are read only inside the glTF's own folder: an absolute
+path, a '..' that climbs out, a symbolic link leading out or a file with other hard links
+(one may be anywhere) is refused with one line, unless `outside_files_allowed()` is in force
+(`--allow-outside-files`). Only images a texture uses are read, and embedded in the export.
+
 * TEXCOORD_0 -> `uv0` (zeros when absent); TEXCOORD_1 -> `uv1`, float32 values kept bit for bit.
   `uv1` is None unless every triangle primitive has TEXCOORD_1 (mixed files get a warning).
 * NORMAL kept (else smooth `vertex_normals`), TANGENT kept when every primitive has it,
@@ -39,7 +44,7 @@ Export
 `save_baked_glb` writes one .glb.  For a scene loaded from a glTF file (`_SourceWriter`) it is
 that file's document as it was (JSON objects copied, not re-encoded): node hierarchy, names,
 transforms, materials with every field and extension, textures, samplers, images (their bytes;
-files beside a .gltf are embedded), cameras, lights, skins, animations, extras.  Each mesh
+files beside a .gltf that a texture uses are embedded), cameras, lights, skins, animations, extras.  Each mesh
 instance's triangle primitives are rewritten in the primitive's local space with the vertices
 the lightmap UVs split (every attribute and morph target copied through the vertex mapping in
 its stored component type) plus TEXCOORD_1 (= `uv1` exactly); a mesh drawn by several nodes
@@ -77,8 +82,11 @@ import math
 import struct
 import warnings
 from collections import Counter
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
+from typing import Iterator
 from urllib.parse import unquote, unquote_to_bytes
 
 import numpy as np
@@ -192,6 +200,37 @@ def _split_glb(data: bytes, path: Path) -> tuple[str, bytes | None]:
         return chunks[0][1].decode("utf-8"), blob
     except UnicodeDecodeError:
         raise PatchlightError(f"{path}: malformed .glb (JSON chunk is not UTF-8)") from None
+
+
+_outside_allowed = ContextVar("patchlight_outside_files_allowed", default=False)
+
+
+@contextmanager
+def outside_files_allowed(allowed: bool = True) -> Iterator[None]:
+    """Within it, glTF uris may name files outside the glTF's folder (`--allow-outside-files`)."""
+    token = _outside_allowed.set(allowed)
+    try:
+        yield
+    finally:
+        _outside_allowed.reset(token)
+
+
+def outside_reason(folder: Path, name: str) -> str | None:
+    """Why the file `name` (a decoded uri) is not safely inside `folder`, or None when it is."""
+    if PurePosixPath(name).is_absolute() or PureWindowsPath(name).anchor:
+        return "is an absolute path"
+    root = folder.resolve()
+    try:
+        target = (folder / name).resolve()
+        if not target.is_relative_to(root):
+            if ".." in PurePosixPath(name).parts:
+                return "climbs out of the folder with '..'"
+            return "is a symbolic link leading out of the folder"
+        if target.is_file() and target.stat().st_nlink > 1:
+            return "has other hard links (one may lie outside the folder)"
+    except (OSError, RuntimeError):  # a name too long, a loop of links: not found below
+        return None
+    return None
 
 
 def _data_uri(uri: str) -> bytes:
@@ -332,7 +371,8 @@ class _Importer:
         return self._buffers[index]
 
     def _resource(self, uri: str, what: str) -> bytes:
-        """Bytes behind a buffer or image uri: a data: URI or a file next to the glTF."""
+        """Bytes behind a buffer or image uri: a data: URI or a file in the glTF's folder
+        (`outside_reason`)."""
         if uri.startswith("data:"):
             try:
                 return _data_uri(uri)
@@ -341,6 +381,10 @@ class _Importer:
         if "://" in uri:
             raise self.fail(f"{what}: remote uri {uri[:60]!r}; patchlight reads local files only")
         target = self.path.parent / unquote(uri)
+        reason = None if _outside_allowed.get() else outside_reason(self.path.parent, unquote(uri))
+        if reason is not None:
+            raise self.fail(f"{what}: uri {uri[:60]!r} {reason}; only files inside the glTF's folder "
+                            f"are read (--allow-outside-files reads it)")
         if not target.is_file():
             raise self.fail(f"{what}: file {uri!r} not found next to the glTF")
         return read_bytes(target)
@@ -1313,11 +1357,13 @@ class _SourceWriter:
                     del holder["extras"]
 
     def embed_external_images(self) -> None:
-        """Images in files beside a .gltf move into the .glb, their bytes unchanged (a data: URI
-        stays as it is; an image that cannot be read keeps its uri)."""
+        """Images in files beside a .gltf that a texture uses move into the .glb, their bytes
+        unchanged (a data: URI stays as it is; an image that cannot be read, or that nothing
+        uses, keeps its uri and is never read)."""
+        used = _used_images(self.raw)
         for number, image in enumerate(self.raw["images"]):
             uri = image.get("uri")
-            if not isinstance(uri, str) or uri.startswith("data:"):
+            if not isinstance(uri, str) or uri.startswith("data:") or number not in used:
                 continue
             try:
                 data = self.importer._resource(uri, f"image {number}")
@@ -1494,6 +1540,16 @@ def _distinct(references) -> list[tuple[dict, str]]:
             seen.add((id(holder), key))
             out.append((holder, key))
     return out
+
+
+def _used_images(raw: dict) -> set[int]:
+    """Indices of the images some texture names as its source (or an extension's source)."""
+    used = set()
+    for texture in raw.get("textures") or []:
+        if isinstance(texture, dict):
+            sources = [texture] + [e for e in (texture.get("extensions") or {}).values() if isinstance(e, dict)]
+            used.update(s["source"] for s in sources if isinstance(s.get("source"), int))
+    return used
 
 
 def _image_mime(data: bytes) -> str | None:
