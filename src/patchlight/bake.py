@@ -148,7 +148,7 @@ def stitch_seams(scene: Scene, patches: Patches, status: np.ndarray, images: lis
     from .atlas.seams import seam_edges
     from .imaging.stitch import seam_differences, stitch
 
-    uv_a, uv_b = seam_edges(scene.positions, scene.indices, scene.uv1)
+    uv_a, uv_b = seam_edges(scene.positions, scene.normals, scene.indices, scene.uv1)
     valid = (patches.index >= 0) & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
     stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
 

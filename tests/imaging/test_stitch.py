@@ -23,7 +23,7 @@ def _two_islands():
 
 def test_the_cut_diagonal_is_one_seam_with_matching_ends():
     positions, indices, uv = _two_islands()
-    uv_a, uv_b = seam_edges(positions, indices, uv)
+    uv_a, uv_b = seam_edges(positions, np.tile([0.0, 1.0, 0.0], (6, 1)), indices, uv)
     assert uv_a.shape == (1, 2, 2)
     ends = {tuple(np.round(p, 2)) for p in uv_a[0]}, {tuple(np.round(p, 2)) for p in uv_b[0]}
     assert ends[0] | ends[1] == {(0.05, 0.05), (0.45, 0.45), (0.55, 0.55), (0.95, 0.95)}
@@ -32,9 +32,18 @@ def test_the_cut_diagonal_is_one_seam_with_matching_ends():
     assert first in ({(0.05, 0.05), (0.55, 0.55)}, {(0.45, 0.45), (0.95, 0.95)})
 
 
+def test_a_hard_edge_is_no_seam():
+    """Where the two sides' normals differ (a fold), the light differs rightly: not stitched."""
+    positions, indices, uv = _two_islands()
+    positions[5] = [0, 1, 1]  # the second triangle folded up about the diagonal
+    normals = np.array([[0, 1, 0]] * 3 + [[-0.7071, 0.7071, 0]] * 3)
+    assert len(seam_edges(positions, normals, indices, uv)[0]) == 0
+    assert len(seam_edges(positions, np.tile([0.0, 1.0, 0.0], (6, 1)), indices, uv)[0]) == 1
+
+
 def test_stitching_makes_the_two_sides_agree_and_invalid_texels_give_way():
     positions, indices, uv = _two_islands()
-    uv_a, uv_b = seam_edges(positions, indices, uv)
+    uv_a, uv_b = seam_edges(positions, np.tile([0.0, 1.0, 0.0], (6, 1)), indices, uv)
     rng = np.random.default_rng(0)
     image = np.concatenate([np.full((32, 16, 1), 1.0), np.full((32, 16, 1), 2.0)], axis=1) + rng.uniform(0, 0.1, (32, 32, 1))
     image = np.repeat(image, 3, axis=2).astype(np.float32)
@@ -61,6 +70,7 @@ def test_a_baked_sphere_agrees_across_its_seams_within_one_percent():
     assert seams["before"]["median"] > 0.01 and seams["before"]["max"] > 0.05  # xatlas' seams do jump
     assert seams["after"]["max"] < 0.01
     changed = np.any(stitched.lightmap != plain.lightmap, axis=2)
-    uv_a, uv_b = seam_edges(stitched.scene.positions, stitched.scene.indices, stitched.scene.uv1)
+    uv_a, uv_b = seam_edges(stitched.scene.positions, stitched.scene.normals, stitched.scene.indices,
+                              stitched.scene.uv1)
     assert seam_differences(plain.lightmap, uv_a, uv_b).max() == pytest.approx(seams["before"]["max"])
     assert 0 < changed.sum() < (plain.patches.index >= 0).sum()  # only seam texels move

@@ -2,16 +2,20 @@
 
 Two triangles share a 3-D edge when its end points have bit-identical positions; the edge is
 a seam when the two triangles give those end points different lightmap UVs (the unwrap cut
-the surface there). Lookups on either side of a seam should read the same light
-(`patchlight.imaging.stitch`)."""
+the surface there) but the same normals (within SMOOTH): the surface runs on smoothly, so
+lookups on either side should read the same light (`patchlight.imaging.stitch`). Where the
+normals differ (a room's corner, a box's edge) the light differs rightly and the edge is no seam."""
 from __future__ import annotations
 
 import numpy as np
 
 from .uvs import _edge_codes
 
+SMOOTH = 0.9998  # cosine between the two sides' normals at both end points (1.1 degrees)
 
-def seam_edges(positions: np.ndarray, indices: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+
+def seam_edges(positions: np.ndarray, normals: np.ndarray, indices: np.ndarray,
+               uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(uv_a, uv_b), each (S, 2, 2): the UVs of both end points of each seam on its two sides,
     end points in the same order on both sides. Edges met by more than two triangles are left out."""
     if len(indices) == 0:
@@ -31,8 +35,10 @@ def seam_edges(positions: np.ndarray, indices: np.ndarray, uv: np.ndarray) -> tu
     ends_b[flip] = ends_b[flip][:, ::-1]
     flat_uv = np.asarray(uv, np.float64)[indices].reshape(-1, 2)
     uv_a, uv_b = flat_uv[ends_a], flat_uv[ends_b]
-    apart = np.any(uv_a != uv_b, axis=(1, 2))
-    return uv_a[apart], uv_b[apart]
+    flat_normal = np.asarray(normals, np.float64)[indices].reshape(-1, 3)
+    smooth = np.all(np.einsum("ijk,ijk->ij", flat_normal[ends_a], flat_normal[ends_b]) > SMOOTH, axis=1)
+    seam = np.any(uv_a != uv_b, axis=(1, 2)) & smooth
+    return uv_a[seam], uv_b[seam]
 
 
 def _edge_ends(indices, keys, edge) -> np.ndarray:

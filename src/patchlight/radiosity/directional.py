@@ -41,9 +41,10 @@ class DirectionalSums:
         self.dominant = np.zeros((n, 4))
 
     def add_sh(self, rows: np.ndarray, irradiance: np.ndarray, dirs: np.ndarray) -> None:
-        """Pieces of radiance x solid angle, irradiance (M, 3), arriving along unit dirs (M, 3) at patches rows (M,)."""
-        basis = np.concatenate([np.full((len(dirs), 1), Y00), Y1 * dirs], axis=1)   # (M, 4)
-        np.add.at(self.sh, rows, basis[:, :, None] * irradiance[:, None, :])
+        """K pieces of radiance x solid angle per patch, irradiance (R, K, 3), arriving along
+        unit dirs (R, K, 3) at distinct patches rows (R,)."""
+        self.sh[rows, 0] += Y00 * irradiance.sum(axis=1)
+        self.sh[rows, 1:] += Y1 * np.einsum("rka,rkc->rac", dirs, irradiance)
 
     def add_radial(self, rows: np.ndarray, a: np.ndarray, b: np.ndarray, normals: np.ndarray) -> None:
         """Radiance a + b cos (a, b (R, 3)) over the hemisphere about normals (R, 3), exactly:
@@ -53,9 +54,11 @@ class DirectionalSums:
         self.sh[rows, 1:] += Y1 * normals[:, :, None] * (np.pi * a + 2 * np.pi / 3 * b)[:, None, :]
 
     def add_dominant(self, rows: np.ndarray, incident: np.ndarray, dirs: np.ndarray) -> None:
-        """Pieces of incident light I (M, 3) arriving along unit dirs (M, 3) at patches rows (M,)."""
-        lum = incident @ LUMINANCE
-        np.add.at(self.dominant, rows, np.concatenate([dirs, np.ones((len(dirs), 1))], axis=1) * lum[:, None])
+        """K pieces of incident light per patch, I (R, K, 3), arriving along unit dirs (R, K, 3)
+        at distinct patches rows (R,)."""
+        lum = incident @ LUMINANCE                                       # (R, K)
+        self.dominant[rows, :3] += np.einsum("rk,rka->ra", lum, dirs)
+        self.dominant[rows, 3] += lum.sum(axis=1)
 
     def lightmap_values(self, mode: str) -> np.ndarray:
         """(N, C) per-patch values of the mode's maps: 12 for sh (L0, L1x, L1y, L1z x RGB), 3 for dominant."""
@@ -82,18 +85,17 @@ def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advan
         sky = seen == _kernels.SKY
         if gatherer.sky is not None and sky.any():
             radiance[sky] = gatherer.sky.radiance(dirs[sky])
-        return part, radiance.reshape(len(part), d, 3), dirs.astype(np.float64)
+        return part, radiance.reshape(len(part), d, 3), dirs.astype(np.float64).reshape(len(part), d, 3)
 
     cos = gatherer.dirs[:, 2].astype(np.float64)
     moments = np.linalg.inv([[weights.sum(), weights @ cos], [weights @ cos, weights @ cos ** 2]])
     for part, radiance, dirs in gatherer.tracer.map(chunk, gatherer._chunks(rows)):
         m0, m1 = np.einsum("rdc,d->rc", radiance, weights), np.einsum("rdc,d->rc", radiance, weights * cos)
         a, b = moments[0, 0] * m0 + moments[0, 1] * m1, moments[1, 0] * m0 + moments[1, 1] * m1
-        ray_rows = np.repeat(part, d)
         sums.add_radial(part, a, b, gatherer.patches.normal[part].astype(np.float64))
         residual = radiance - a[:, None] - b[:, None] * cos[None, :, None]
-        sums.add_sh(ray_rows, (residual * solid_angle[None, :, None]).reshape(-1, 3), dirs)
-        sums.add_dominant(ray_rows, (radiance * weights[None, :, None]).reshape(-1, 3), dirs)
+        sums.add_sh(part, residual * solid_angle[None, :, None], dirs)
+        sums.add_dominant(part, radiance * weights[None, :, None], dirs)
         if advance is not None:
             advance(len(part))
     return sums
@@ -109,9 +111,9 @@ def add_direct(sums: DirectionalSums, patches: Patches, lights, per_light: list[
         to_light = to_light / np.maximum(np.linalg.norm(to_light, axis=1, keepdims=True), 1e-30)
         lit = np.flatnonzero(np.asarray(incident).max(axis=1) > 0)
         cos = np.maximum(np.einsum("ij,ij->i", patches.normal[lit], to_light[lit]), MIN_COS)
-        I = np.asarray(incident, np.float64)[lit]
-        sums.add_sh(lit, np.pi * I / cos[:, None], to_light[lit])
-        sums.add_dominant(lit, I, to_light[lit])
+        I = np.asarray(incident, np.float64)[lit, None]
+        sums.add_sh(lit, np.pi * I / cos[:, None, None], to_light[lit, None])
+        sums.add_dominant(lit, I, to_light[lit, None])
 
 
 def split_maps(mode: str, images: np.ndarray) -> DirectionalLightmap:
