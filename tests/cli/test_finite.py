@@ -1,6 +1,10 @@
 """Finite or refused: light, emission, sky and option values are checked where they enter
 (one line, exit 2, nothing written); every file written is strict JSON and finite."""
+import base64
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +24,6 @@ def lit_floor_gltf(path, light_text='"intensity": 3.0', emissive="[0, 0, 0]"):
     positions = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float32)
     indices = np.array([0, 2, 1, 0, 3, 2], np.uint32)
     blob = positions.tobytes() + indices.tobytes()
-    import base64
-
     text = f'''{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
   "extensionsUsed": ["KHR_lights_punctual"],
   "extensions": {{"KHR_lights_punctual": {{"lights": [{{"type": "directional", {light_text}}}]}}}},
@@ -53,6 +55,15 @@ def test_a_light_or_emission_not_finite_or_out_of_range_is_one_line(tmp_path, ca
     assert status == 2 and len(err.strip().splitlines()) == 1, err
     assert ("light" in err or "emissi" in err) and ("0..1e+12" in err or "finite" in err or "[0, inf]" in err)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_command_line_says_one_line_without_numpys_warnings(tmp_path):
+    """Emission 1e300 overflows float32 as it is read (a NumPy RuntimeWarning): the user still
+    sees only patchlight's one line."""
+    scene = lit_floor_gltf(tmp_path / "floor.gltf", '"intensity": 3', "[1e300, 0, 0]")
+    run = subprocess.run([str(Path(sys.executable).with_name("patchlight")), "bake", str(scene), "-o",
+                          str(tmp_path / "out")], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2 and len(run.stderr.strip().splitlines()) == 1, run.stderr
 
 
 def test_the_same_floor_with_a_sane_sun_bakes(tmp_path, capsys):

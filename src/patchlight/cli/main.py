@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import warnings
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +41,8 @@ def _run(argv: list[str] | None) -> int:
     except SystemExit as exc:  # usage errors and --help, already printed
         return int(exc.code or 0)
     try:
-        with outside_files_allowed(getattr(args, "allow_outside_files", False)):
+        with outside_files_allowed(getattr(args, "allow_outside_files", False)), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the user gets patchlight's own lines, not NumPy's
             return int(args.func(args) or 0)
     except PatchlightError as exc:
         print(f"patchlight: error: {exc}", file=sys.stderr)
