@@ -7,7 +7,9 @@ folders, and the old one, now under the staging name, is removed. A reader openi
 `out/room/...` thus finds the whole old set or the whole new set, at the same top-level
 paths, never a mixture, and an interrupt (or SIGKILL) at any instant leaves the old set
 whole: before the swap nothing of `out` has changed, after it the new set is complete.
-A first output is simply renamed into place.
+A first output is simply renamed into place. On a file system without the exchange the old
+folder steps aside for a moment (readers then find no folder, never a mixture), and a run
+killed in that moment has it put back by the next.
 
 One writer at a time: `output_lock` (taken by the commands before any work, and by
 `staged_output`) lets a second writer into the same folder fail at once with one line; the
@@ -71,9 +73,15 @@ def output_lock(out_dir) -> Iterator[None]:
 
 def _remove_stale_staging(out: Path) -> None:
     """Staging folders of runs into `out` that were killed (the lock is ours, so no live
-    process is using them)."""
+    process is using them); an old folder stepped aside (`_swap_in`) goes back when `out` is
+    missing."""
     if not out.parent.is_dir():
         return
+    for aside in out.parent.glob(f".{out.name}.previous-*"):
+        if not out.exists():
+            os.rename(aside, out)
+        else:
+            shutil.rmtree(aside, ignore_errors=True)
     for stale in out.parent.glob(f".{out.name}.partial-*"):
         shutil.rmtree(stale, ignore_errors=True)
 
@@ -122,9 +130,17 @@ def _carry_over(out: Path, staging: Path, stale: tuple[str, ...]) -> None:
         if target.exists() or target.is_symlink() or any(entry.match(pattern) for pattern in stale):
             continue
         if entry.is_symlink() or not entry.is_dir():
-            os.link(entry, target, follow_symlinks=False)
+            _link_or_copy(entry, target)
         else:
-            shutil.copytree(entry, target, symlinks=True, copy_function=os.link)
+            shutil.copytree(entry, target, symlinks=True, copy_function=_link_or_copy)
+
+
+def _link_or_copy(source, target) -> None:
+    """A hard link (a copy where the file system has none)."""
+    try:
+        os.link(source, target, follow_symlinks=False)
+    except OSError:
+        shutil.copy2(source, target, follow_symlinks=False)
 
 
 def _swap_in(staging: Path, out: Path) -> None:
@@ -133,11 +149,27 @@ def _swap_in(staging: Path, out: Path) -> None:
     if not out.exists():
         os.rename(staging, out)
         return
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.renameat2(AT_FDCWD, os.fsencode(staging), AT_FDCWD, os.fsencode(out), RENAME_EXCHANGE) == 0:
+    code = _exchange(staging, out)
+    if code == 0:
         return
-    code = ctypes.get_errno()
-    raise OSError(code, f"cannot swap in the new output ({os.strerror(code)})")
+    if code not in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        raise OSError(code, f"cannot swap in the new output ({os.strerror(code)})")
+    # no exchange on this file system: the old folder steps aside for a moment, under a name
+    # the next run puts back should this one be killed before the new folder is in place
+    aside = out.parent / f".{out.name}.previous-{os.getpid()}"
+    os.rename(out, aside)
+    os.rename(staging, out)
+    os.rename(aside, staging)
+
+
+def _exchange(first: Path, second: Path) -> int:
+    """Swap two paths atomically (renameat2 RENAME_EXCHANGE): 0, or the errno."""
+    renameat2 = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    if renameat2 is None:
+        return errno.ENOSYS
+    if renameat2(AT_FDCWD, os.fsencode(first), AT_FDCWD, os.fsencode(second), RENAME_EXCHANGE) == 0:
+        return 0
+    return ctypes.get_errno()
 
 
 def folder_version(folder) -> tuple[int, int]:

@@ -112,6 +112,39 @@ def test_an_interrupt_at_every_step_of_a_rewrite_leaves_one_whole_set(tmp_path, 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def test_without_the_exchange_the_old_folder_steps_aside_and_comes_back(tmp_path, monkeypatch, two_bakes):
+    """A file system without RENAME_EXCHANGE: the write still replaces the set; killed between
+    stepping the old folder aside and moving the new one in, the next run puts the old back."""
+    import errno
+
+    (old, settings), (new, _) = two_bakes
+    out = tmp_path / "out"
+    write_bake(old, out, settings)
+    before = snapshot(out)
+    monkeypatch.setattr(outputs, "_exchange", lambda first, second: errno.EINVAL)
+    write_bake(new, out, settings)
+    assert whole_set(out) == 2.0 and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    write_bake(old, out, settings)
+    before = snapshot(out)
+    renames = []
+
+    def killed_after_the_first(source, target):
+        renames.append(source)
+        if len(renames) == 2:
+            raise SystemExit("killed")  # no clean-up runs after SIGKILL: keep the staging folder
+        os.replace(source, target)
+
+    monkeypatch.setattr(os, "rename", killed_after_the_first)
+    monkeypatch.setattr(shutil, "rmtree", lambda *args, **kwargs: None)
+    with pytest.raises(SystemExit):
+        write_bake(new, out, settings)
+    monkeypatch.undo()
+    assert not out.exists()
+    with outputs.output_lock(out):
+        pass
+    assert snapshot(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
 def test_files_beside_the_set_stay_and_stale_pass_pictures_go(tmp_path, two_bakes):
     (old, settings), (new, _) = two_bakes
     out = tmp_path / "out"
