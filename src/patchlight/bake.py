@@ -25,6 +25,7 @@ from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
+from .texels import TEXELS_FILE, Texels
 
 FLOAT32_REACH = 1e-5        # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
@@ -39,8 +40,9 @@ REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
 @dataclass
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
-    solution, the (possibly re-indexed) scene with its lightmap UVs, and stats for bake.json;
-    directional: the directional lightmap (`BakeSettings.directional`) or None."""
+    solution, the (possibly re-indexed) scene with its lightmap UVs, stats for bake.json,
+    pass_incident: each pass's incident light (N, 3) float16, and directional: the directional
+    lightmap (`BakeSettings.directional`) or None."""
 
     scene: Scene
     patches: Patches
@@ -48,8 +50,19 @@ class BakeResult:
     status: np.ndarray
     solution: Solution
     stats: dict = field(default_factory=dict)
-    pass_images: list = field(default_factory=list)
+    pass_incident: list = field(default_factory=list)
     directional: DirectionalLightmap | None = None
+
+    def pass_images(self) -> list[np.ndarray]:
+        """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is."""
+        return [fill_lightmap(self.patches, I, self.status) for I in self.pass_incident]
+
+    def texels(self) -> Texels:
+        """The per-texel arrays of texels.npz."""
+        p = self.patches
+        return Texels(np.stack(self.pass_images()).astype(np.float16), p.to_image(self.status),
+                      p.to_image(p.chart, fill=-1), p.to_image(p.rho), p.to_image(p.emission),
+                      p.to_image(self.solution.excident.astype(np.float32)))
 
 
 def _check_scene(scene: Scene) -> None:
@@ -226,12 +239,11 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         status, order = _gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
         rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
-        pass_images = []
+        pass_incident = []
         with progress.stage("passes", total=settings.passes) as advance:
             def on_pass(k, change, incident):
                 advance(1, note=f"pass {k}: change {change:.2e}")
-                if settings.save_passes:
-                    pass_images.append(fill_lightmap(patches, incident, status))
+                pass_incident.append(incident.astype(np.float16))
 
             solution = solve(ff, direct, patches.rho, patches.emission, status, order,
                              settings.passes, settings.tolerance, on_pass=on_pass)
@@ -282,7 +294,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
-    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_images, directional)
+    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_incident, directional)
 
 
 BAKE_MARKER = "bake.json"          # written last: a directory is a bake only with it
@@ -290,8 +302,8 @@ BAKE_STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older b
 
 
 def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
-    """Write lightmap.exr, lightmap.png, adaptive.png, scene.glb, bake.json (and the pass
-    pictures) into out_dir as one set (`patchlight.outputs.staged_output`: swapped in whole,
+    """Write lightmap.exr, lightmap.png, adaptive.png, texels.npz, scene.glb, bake.json (and
+    the pass pictures) into out_dir as one set (`patchlight.outputs.staged_output`: swapped in whole,
     in one atomic step); returns the summary that bake.json holds."""
     from .outputs import staged_output
 
@@ -309,13 +321,14 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
     pictures = {"lightmap.png": exposed_png_pixels(result.lightmap, k),
                 "adaptive.png": adaptive.debug_image(result.patches, result.status)}
-    pictures.update({f"pass_{i:02d}.png": exposed_png_pixels(image, k)
-                     for i, image in enumerate(result.pass_images, start=1)})
+    if settings.save_passes:
+        pictures.update({f"pass_{i:02d}.png": exposed_png_pixels(image, k)
+                         for i, image in enumerate(result.pass_images(), start=1)})
     value_range = float(max(1.0, result.lightmap.max()))
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
     extra = [] if result.directional is None else [result.directional.file_name]
-    names = sorted(["lightmap.exr", "scene.glb", BAKE_MARKER, *pictures, *extra])
+    names = sorted(["lightmap.exr", "scene.glb", TEXELS_FILE, BAKE_MARKER, *pictures, *extra])
     sky = result.scene.sky
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
@@ -323,6 +336,7 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     write_exr(staging / "lightmap.exr", result.lightmap)
     if result.directional is not None:
         result.directional.save(staging)
+    write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
     for name, pixels in pictures.items():
         write_png(staging / name, pixels)
     save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,

@@ -77,6 +77,9 @@ def register(sub) -> None:
                    help="envmap and hemisphere-radiosity models: render the cube map from this point "
                         "(default: the sky; without one, the scene's centre, or the default camera's eye "
                         "when the centre is inside an object)")
+    p.add_argument("--patch", metavar="X,Y",
+                   help="instead of a camera picture: the view from the bake's lightmap texel X,Y (column, row), "
+                        "its hemicube unfolded (or its stratified rays on the hemisphere) beside the multiplier map")
     add_shading_options(p)
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png|OUT.exr")
     p.set_defaults(func=run)
@@ -156,6 +159,8 @@ def run(args) -> int:
     started = time.perf_counter()
     output = check_output(args.output)
     exposure = parse_exposure(args.exposure)
+    if args.patch:
+        return render_patch(args, output, exposure, started)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     target, settings = load_target_and_settings(args, args.model)
     renderer = Renderer(target, envmap_from)
@@ -168,4 +173,32 @@ def run(args) -> int:
     write_render(output, result.radiance, exposure)
     print(f"wrote {output} ({width}x{height}, {settings.model}, exposure {exposure:.4g}) "
           f"in {time.perf_counter() - started:.2f} s")
+    return 0
+
+
+PATCH_PICTURE_PIXELS = 256  # a patch view's PNG is scaled up by whole pixels to about this height
+
+
+def render_patch(args, output: Path, exposure: float | None, started: float) -> int:
+    """`render BAKE_DIR --patch X,Y`: the PNG of the view from a patch (patchlight.patchview),
+    or its linear radiance picture as .exr."""
+    from ..imaging.exposure import auto_exposure
+    from ..imaging.io import write_exr, write_png
+    from ..patchview import PatchViews, parse_texel, patch_picture
+    from ..solved import is_bake_dir
+
+    x, y = parse_texel(args.patch)
+    if not is_bake_dir(args.target):
+        raise PatchlightError(f"--patch: {args.target} is not a bake directory (the view from a patch needs a bake)")
+    view = PatchViews(args.target).at(x, y)
+    seen = view.seen >= -1  # patches and sky, not back faces or lost hits
+    if exposure is None:
+        exposure = auto_exposure(view.radiance[seen]) if seen.any() else 1.0
+    if output.suffix.lower() == ".exr":
+        write_exr(output, view.picture(view.radiance))
+    else:
+        scale = max(1, PATCH_PICTURE_PIXELS // (2 * view.size if view.method == "hemicube" else 128))
+        write_png(output, patch_picture(view, exposure, scale))
+    print(f"wrote {output} (texel {x},{y}: {view.method}, {len(view.seen)} rays, gathered light "
+          f"{', '.join(f'{c:.4g}' for c in view.gathered)}; exposure {exposure:.4g}) in {time.perf_counter() - started:.2f} s")
     return 0

@@ -104,6 +104,11 @@ class Gatherer:
                                                                          self.weights, B), self._chunks(rows))
         return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
+    def look(self, row: int) -> tuple[np.ndarray, np.ndarray]:
+        """What patch `row` sees through the bake's own pattern, turned as in its gather: the
+        item buffer (D,) (patch id or SKY / BACK_FACE / LOST) and the world directions (D, 3)."""
+        return self._see(np.array([row], np.int64), self.dirs)
+
     def _see(self, rows: np.ndarray, local_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
         id or SKY / BACK_FACE / LOST per ray, and the rays' directions (R * D, 3)."""

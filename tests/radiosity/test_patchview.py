@@ -1,0 +1,124 @@
+"""View from a patch (patchlight.patchview) and the bake's texels.npz: the view is the
+bake's own gather (its weighted sum is the patch's gathered light), the unfolded hemicube
+is the picture five pinhole cameras at the patch take (rendered by the CPU renderer), and
+`render --patch` writes it or says in one line what is wrong."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from patchlight.bake import bake, write_bake
+from patchlight.cli.main import main
+from patchlight.config import BakeSettings
+from patchlight.imaging.io import read_exr
+from patchlight.patchview import PatchViews, _cross_pixels
+from patchlight.radiosity import adaptive
+from patchlight.render import Renderer, load_target, target_settings
+from patchlight.scene import load_scene
+from patchlight.texels import STATUS_NAMES, read_texels
+
+HEMICUBE = 16
+
+
+@pytest.fixture(scope="module")
+def baked(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bake") / "cornell"
+    settings = BakeSettings(resolution=32, gather="hemicube", hemicube_size=HEMICUBE, tolerance=1e-4)
+    result = bake(load_scene("cornell"), settings)
+    write_bake(result, out, settings)
+    return result, out
+
+
+def test_texels_file_holds_every_pass_and_the_bake_arrays(baked):
+    result, out = baked
+    texels = read_texels(out)
+    p = result.patches
+    assert texels.passes.shape == (result.stats["passes"], 32, 32, 3)
+    np.testing.assert_allclose(texels.passes[-1], read_exr(out / "lightmap.exr"), rtol=2e-3, atol=1e-4)
+    assert texels.passes[0].sum() < texels.passes[-1].sum()  # the bounces add light
+    np.testing.assert_array_equal(texels.status[p.texel_y, p.texel_x], result.status)
+    assert (texels.status[p.index < 0] == 0).all() and STATUS_NAMES[adaptive.INSIDE] == "inside geometry"
+    np.testing.assert_array_equal(texels.chart[p.texel_y, p.texel_x], p.chart)
+    np.testing.assert_array_equal(texels.rho[p.texel_y, p.texel_x], p.rho)
+    np.testing.assert_array_equal(texels.excident[p.texel_y, p.texel_x], result.solution.excident)
+
+
+def test_the_view_sums_to_the_patch_gathered_light(baked):
+    result, out = baked
+    views = PatchViews(out)
+    computed = np.flatnonzero(result.status == adaptive.COMPUTED)
+    p = result.patches
+    for row in computed[:: max(1, len(computed) // 25)]:
+        view = views.at(int(p.texel_x[row]), int(p.texel_y[row]))
+        np.testing.assert_allclose(view.gathered, result.solution.gathered[row], rtol=2e-3, atol=1e-5)
+
+
+def test_the_cross_places_every_hemicube_pixel_once():
+    n = 8
+    row, col = _cross_pixels(n)
+    assert len(set(zip(row.tolist(), col.tolist()))) == 3 * n * n
+    assert row.min() == col.min() == 0 and row.max() == col.max() == 2 * n - 1
+
+
+def pinhole_cross(n: int, frame: np.ndarray) -> np.ndarray:
+    """(2n, 2n, 3) world directions through the pixel centres of five pinhole cameras at a
+    patch (frame rows: tangent, bitangent, normal), unfolded into the article's cross: the
+    front camera in the middle, each side camera's half above the surface folded out about
+    its edge with the front one; zeros in the corners."""
+    h = n // 2
+    centre = -1 + (np.arange(n) + 0.5) * 2 / n      # front face: x right, y up (top row +y)
+    out_of_plane = 1 - (np.arange(h) + 0.5) * 2 / n  # side faces: z falls from 1 to 0 outwards
+    d = np.zeros((2 * n, 2 * n, 3))
+    d[h:h + n, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], centre[::-1, None], 1.0), -1)
+    d[h:h + n, h + n:] = np.stack(np.broadcast_arrays(1.0, centre[::-1, None], out_of_plane[None, :]), -1)
+    d[h:h + n, :h] = np.stack(np.broadcast_arrays(-1.0, centre[::-1, None], out_of_plane[None, ::-1]), -1)
+    d[:h, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], 1.0, out_of_plane[::-1, None]), -1)
+    d[h + n:, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], -1.0, out_of_plane[:, None]), -1)
+    return d @ frame
+
+
+def test_the_unfolded_hemicube_is_what_five_cameras_at_the_patch_see(baked):
+    """The picture (the bake's item buffer showing excident light B per texel) against the
+    CPU renderer's lightmap model (bilinear lightmap x base colour + emission) along pinhole
+    rays built here from the patch's frame."""
+    result, out = baked
+    target = load_target(str(out))
+    renderer = Renderer(target)
+    settings = target_settings(target, model="lightmap")
+    views = PatchViews(out)
+    p = result.patches
+    floor = np.flatnonzero((p.normal[:, 1] > 0.9) & (result.status == adaptive.COMPUTED))
+    for row in floor[[len(floor) // 3, 2 * len(floor) // 3]]:
+        view = views.at(int(p.texel_x[row]), int(p.texel_y[row]))
+        frame, *_ = np.linalg.lstsq(view.local.astype(np.float64), view.directions.astype(np.float64), rcond=None)
+        dirs = pinhole_cross(HEMICUBE, frame)
+        cross = np.linalg.norm(dirs, axis=-1) > 0
+        unit = (dirs[cross] / np.linalg.norm(dirs[cross], axis=-1, keepdims=True)).astype(np.float32)
+        cpu, covered = renderer.shade_rays(settings, np.broadcast_to(view.origin.astype(np.float32), unit.shape), unit)
+        np.testing.assert_allclose(view.picture(view.directions)[cross], unit, atol=1e-4)  # the same rays
+        mine = view.picture(view.radiance)[cross]
+        assert np.array_equal(view.picture(view.seen)[cross] >= 0, covered)
+        relative = np.abs(mine - cpu).sum(-1) / np.maximum(cpu.sum(-1), 1e-3)
+        print(f"texel {view.texel}: median {np.median(relative):.3f}, 90th percentile {np.percentile(relative, 90):.3f}")
+        # per pixel, one texel's B against a bilinear blend of four (32 x 32 texels): a few %
+        np.testing.assert_allclose(mine.mean(axis=0), cpu.mean(axis=0), rtol=0.01)
+        assert np.median(relative) < 0.08 and np.percentile(relative, 90) < 0.3
+
+
+def test_render_patch_writes_the_picture_and_refuses_bad_texels(baked, tmp_path, capsys):
+    result, out = baked
+    p = result.patches
+    row = int(np.flatnonzero(result.status == adaptive.COMPUTED)[0])
+    png = tmp_path / "patch.png"
+    assert main(["render", str(out), "--patch", f"{p.texel_x[row]},{p.texel_y[row]}", "-o", str(png)]) == 0
+    picture = np.asarray(Image.open(png))
+    assert picture.shape[0] == 2 * HEMICUBE * (256 // (2 * HEMICUBE)) and picture.shape[1] > 2 * picture.shape[0]
+    capsys.readouterr()
+    uncovered = np.argwhere(p.index < 0)[0]
+    for bad in ("9999,0", f"{uncovered[1]},{uncovered[0]}", "1;2", "-1,3"):
+        assert main(["render", str(out), "--patch", bad, "-o", str(tmp_path / "bad.png")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--patch" in err and "Traceback" not in err
+    assert main(["render", "cornell", "--patch", "1,1", "-o", str(tmp_path / "bad.png")]) == 2
+    assert not (tmp_path / "bad.png").exists()
