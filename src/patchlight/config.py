@@ -21,7 +21,7 @@
 | max_memory        | bytes         | 8 GiB          | above this the form-factor matrix is not kept: re-gather a pass |
 | seed              | int           | 1              | random rotation of the stratified pattern per patch (>= 0)      |
 | denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
-| save_passes       | bool          | False          | keep one lightmap per pass (pass_01.png, ...)                   |
+| save_passes       | bool          | False          | also a PNG per pass (pass_01.png, ...); texels.npz has them all |
 | stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
 | directional       | str           | None           | also bake "sh" (L1, lightmap_sh.exr) or "dominant" (_dir.exr)   |
 | ray               | str           | None           | Ray head HOST:PORT for the gather ("auto", or "local": start one) |

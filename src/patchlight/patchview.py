@@ -79,7 +79,7 @@ class PatchView:
                 "height": kinds.shape[0], "width": kinds.shape[1],
                 "radiance": np.round(self.picture(self.radiance), 6).ravel().tolist(),
                 "kind": kinds.ravel().tolist(), "weight": self.picture(self.weights).ravel().tolist(),
-                "kinds": KINDS, "marks": {int(k): v for k, v in {**MARKS, BACKGROUND: BACKGROUND_COLOUR}.items()},
+                "kinds": KINDS, "background": BACKGROUND, "marks": {int(k): v for k, v in {**MARKS, BACKGROUND: BACKGROUND_COLOUR}.items()},
                 "gathered": self.gathered.tolist(), "rays": len(self.seen),
                 "counts": {name: int(np.count_nonzero(self.seen == code)) for name, code in KINDS.items()}}
 
@@ -133,10 +133,10 @@ class PatchViews:
         from .radiosity.gather import Gatherer
         from .rays.tracer import Tracer
         from .scene import load_scene
-        from .texels import read_texels
+        from .texels import read_bake_texels
 
         bake_dir = Path(bake_dir)
-        self.texels = read_texels(bake_dir)
+        self.texels = read_bake_texels(bake_dir)
         if self.texels is None:
             raise PatchlightError(f"{bake_dir}: no texels.npz (bake it again to view from a patch)")
         settings = json.loads(read_bytes(bake_dir / "bake.json"))["settings"]

@@ -49,7 +49,7 @@ class Texels:
         return buffer.getvalue()
 
 
-def read_texels(bake_dir: str | Path) -> Texels | None:
+def read_bake_texels(bake_dir: str | Path) -> Texels | None:
     """The bake's texels.npz, or None when the bake has none (written before it existed);
     PatchlightError when it is damaged."""
     path = Path(bake_dir) / TEXELS_FILE

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from hemicube_cameras import cpu_hemicube, frame_of, pinhole_cross
+
 from patchlight.bake import bake, write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
@@ -16,7 +18,7 @@ from patchlight.patchview import PatchViews, _cross_pixels
 from patchlight.radiosity import adaptive
 from patchlight.render import Renderer, load_target, target_settings
 from patchlight.scene import load_scene
-from patchlight.texels import STATUS_NAMES, read_texels
+from patchlight.texels import STATUS_NAMES, read_bake_texels
 
 HEMICUBE = 16
 
@@ -32,7 +34,7 @@ def baked(tmp_path_factory):
 
 def test_texels_file_holds_every_pass_and_the_bake_arrays(baked):
     result, out = baked
-    texels = read_texels(out)
+    texels = read_bake_texels(out)
     p = result.patches
     assert texels.passes.shape == (result.stats["passes"], 32, 32, 3)
     np.testing.assert_allclose(texels.passes[-1], read_exr(out / "lightmap.exr"), rtol=2e-3, atol=1e-4)
@@ -61,23 +63,6 @@ def test_the_cross_places_every_hemicube_pixel_once():
     assert row.min() == col.min() == 0 and row.max() == col.max() == 2 * n - 1
 
 
-def pinhole_cross(n: int, frame: np.ndarray) -> np.ndarray:
-    """(2n, 2n, 3) world directions through the pixel centres of five pinhole cameras at a
-    patch (frame rows: tangent, bitangent, normal), unfolded into the article's cross: the
-    front camera in the middle, each side camera's half above the surface folded out about
-    its edge with the front one; zeros in the corners."""
-    h = n // 2
-    centre = -1 + (np.arange(n) + 0.5) * 2 / n      # front face: x right, y up (top row +y)
-    out_of_plane = 1 - (np.arange(h) + 0.5) * 2 / n  # side faces: z falls from 1 to 0 outwards
-    d = np.zeros((2 * n, 2 * n, 3))
-    d[h:h + n, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], centre[::-1, None], 1.0), -1)
-    d[h:h + n, h + n:] = np.stack(np.broadcast_arrays(1.0, centre[::-1, None], out_of_plane[None, :]), -1)
-    d[h:h + n, :h] = np.stack(np.broadcast_arrays(-1.0, centre[::-1, None], out_of_plane[None, ::-1]), -1)
-    d[:h, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], 1.0, out_of_plane[::-1, None]), -1)
-    d[h + n:, h:h + n] = np.stack(np.broadcast_arrays(centre[None, :], -1.0, out_of_plane[:, None]), -1)
-    return d @ frame
-
-
 def test_the_unfolded_hemicube_is_what_five_cameras_at_the_patch_see(baked):
     """The picture (the bake's item buffer showing excident light B per texel) against the
     CPU renderer's lightmap model (bilinear lightmap x base colour + emission) along pinhole
@@ -91,14 +76,13 @@ def test_the_unfolded_hemicube_is_what_five_cameras_at_the_patch_see(baked):
     floor = np.flatnonzero((p.normal[:, 1] > 0.9) & (result.status == adaptive.COMPUTED))
     for row in floor[[len(floor) // 3, 2 * len(floor) // 3]]:
         view = views.at(int(p.texel_x[row]), int(p.texel_y[row]))
-        frame, *_ = np.linalg.lstsq(view.local.astype(np.float64), view.directions.astype(np.float64), rcond=None)
-        dirs = pinhole_cross(HEMICUBE, frame)
-        cross = np.linalg.norm(dirs, axis=-1) > 0
-        unit = (dirs[cross] / np.linalg.norm(dirs[cross], axis=-1, keepdims=True)).astype(np.float32)
-        cpu, covered = renderer.shade_rays(settings, np.broadcast_to(view.origin.astype(np.float32), unit.shape), unit)
+        cpu, covered, cross = cpu_hemicube(renderer, settings, view)
+        unit = pinhole_cross(HEMICUBE, frame_of(view))[cross]
+        unit /= np.linalg.norm(unit, axis=-1, keepdims=True)
         np.testing.assert_allclose(view.picture(view.directions)[cross], unit, atol=1e-4)  # the same rays
         mine = view.picture(view.radiance)[cross]
-        assert np.array_equal(view.picture(view.seen)[cross] >= 0, covered)
+        assert np.array_equal(view.picture(view.seen)[cross] >= 0, covered[cross])
+        cpu = cpu[cross]
         relative = np.abs(mine - cpu).sum(-1) / np.maximum(cpu.sum(-1), 1e-3)
         print(f"texel {view.texel}: median {np.median(relative):.3f}, 90th percentile {np.percentile(relative, 90):.3f}")
         # per pixel, one texel's B against a bilinear blend of four (32 x 32 texels): a few %

@@ -15,6 +15,13 @@
 //   node browser.mjs volume-live URL OUT_DIR       the live page with a light volume: the objects'
 //                                                 places 0.5 s apart, both volume toggles clicked,
 //                                                 screenshot.png
+//   node browser.mjs inspect URL SCRIPT.json OUT_DIR  the inspection tools with the page's own
+//                                                 controls and mouse: every step of the script's
+//                                                 `steps` ({select|click|slide: selector, value},
+//                                                 {sky: false} (hide it), {camera: {eye, target, fov}}, {probe: [x, y] canvas
+//                                                 pixels clicked}, {shot: name}) logs the page's state;
+//                                                 `shot` writes OUT_DIR/<name>.rgba (the canvas) and
+//                                                 <name>.png (a screenshot of the page)
 // Each writes OUT_DIR/log.json: {ready, errors: [...console errors and page errors...], ...}.
 // One browser launch per run, a fresh profile each time. $PATCHLIGHT_CHROMIUM overrides /usr/bin/chromium.
 import fs from 'node:fs';
@@ -95,10 +102,17 @@ async function smoke(url, outDir) {
     await page.selectOption('#light', '1');  // the showcase's point light
     await page.fill('#light-intensity', '20');
     await page.selectOption('#light-falloff', 'range');
-    for (const picture of await page.$$eval('#surface option', (os) => os.map((o) => o.value))) {
-      await page.selectOption('#surface', picture);
-    }
+    log.surfaces = await page.$$eval('#surface option', (os) => os.map((o) => o.value));
+    await page.click('#checker');
+    await page.click('#outlines');
+    for (const surface of log.surfaces) await page.selectOption('#surface', surface);
+    await page.selectOption('#surface', 'adaptive');
+    log.legend = await page.$$eval('#legend div', (ds) => ds.map((d) => d.textContent.trim()));
     await page.selectOption('#surface', '');
+    await page.$eval('#pass', (el) => { el.value = '1'; el.dispatchEvent(new Event('input')); });
+    await page.selectOption('#split', 'lambert');
+    await page.click('#frame-all');
+    await page.click('#exposure-auto');
     log.lightControls = await lightControls(page);
     await page.selectOption('#light', '0');  // the showcase's sun: aim it
     log.lightControls.sunRows = await rowsShown(page);
@@ -184,11 +198,57 @@ async function volumeLive(url, outDir) {
   });
 }
 
-const COMMANDS = { cases, smoke, controls, 'volume-live': volumeLive };
+async function inspect(url, scriptFile, outDir) {
+  const script = JSON.parse(fs.readFileSync(scriptFile, 'utf8'));
+  await withPage(url, outDir, async (page, log) => {
+    log.steps = [];
+    const state = () => page.evaluate(() => {
+      const v = window.patchlight.viewer;
+      return { model: v.state.model, overlay: v.state.overlay, exposure: v.state.exposure, pass: v.state.pass,
+        exposures: v.state.exposures, camera: v.cameraJson(), canvas: [v.renderer.domElement.width, v.renderer.domElement.height] };
+    });
+    const settle = () => page.waitForTimeout(300);  // the redraw runs on the next animation frame
+    for (const step of script.steps) {
+      const entry = { step };
+      if (step.select) await page.selectOption(step.select, step.value);
+      else if (step.click) await page.click(step.click);
+      else if (step.slide) {
+        await page.$eval(step.slide, (el, value) => { el.value = value; el.dispatchEvent(new Event('input')); }, String(step.value));
+      } else if (step.sky === false) {
+        await page.evaluate(() => { window.patchlight.viewer.sky.visible = false; });
+      } else if (step.camera) {
+        await page.evaluate((c) => window.patchlight.look(c), step.camera);
+      } else if (step.probe) {
+        await page.mouse.click(step.probe[0], step.probe[1]);
+        entry.probe = await page.evaluate(async () => {
+          const v = window.patchlight.viewer;
+          const patch = v.probed?.texel && v.probed.status !== 'uncovered' ? await v.patch.loading : null;
+          return { probe: v.probed, patch, text: document.getElementById('probe').textContent,
+            pixels: window.patchlight.patchPixels() };
+        });
+      }
+      await settle();
+      entry.state = await state();
+      if (step.shot) {
+        const pixels = await page.evaluate(() => {
+          const bytes = window.patchlight.viewer.pixels();
+          let binary = '';
+          for (let i = 0; i < bytes.length; i += 0x8000) binary += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+          return btoa(binary);
+        });
+        fs.writeFileSync(path.join(outDir, `${step.shot}.rgba`), Buffer.from(pixels, 'base64'));
+        await page.screenshot({ path: path.join(outDir, `${step.shot}.png`) });
+      }
+      log.steps.push(entry);
+    }
+  });
+}
+
+const COMMANDS = { cases, smoke, controls, 'volume-live': volumeLive, inspect };
 const [command, ...rest] = process.argv.slice(2);
 if (COMMANDS[command]) await COMMANDS[command](...rest);
 else {
   console.error('usage: node browser.mjs cases URL CASES.json OUT_DIR | smoke URL OUT_DIR | '
-    + 'controls URL SCRIPT.json OUT_DIR | volume-live URL OUT_DIR');
+    + 'controls URL SCRIPT.json OUT_DIR | volume-live URL OUT_DIR | inspect URL SCRIPT.json OUT_DIR');
   process.exit(2);
 }

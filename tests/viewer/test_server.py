@@ -27,11 +27,11 @@ pytestmark = pytest.mark.skipif(three_missing() is not None, reason=str(three_mi
 
 @pytest.fixture(scope="module")
 def bake_like(tmp_path_factory):
-    """A target with a bake directory holding pictures (and one file the viewer must not serve)."""
+    """A target with a bake directory holding pictures and a file the viewer must not serve."""
     target = showcase_target(8, 16)
     bake = tmp_path_factory.mktemp("bake")
     picture = encode_png(np.full((4, 4, 3), 200, np.uint8))
-    for name in ("lightmap.png", "pass_01.png", "pass_02.png", "adaptive.png"):
+    for name in ("lightmap.png", "pass_01.png", "adaptive.png"):
         (bake / name).write_bytes(picture)
     (bake / "secret.txt").write_text("not for the browser")
     target.bake_dir = bake
@@ -65,17 +65,19 @@ def test_listens_on_loopback_only(server):
 @pytest.mark.parametrize("path", ["/", "/static/viewer.js", "/static/bundle.js", "/shaders/common.glsl",
                                   "/shaders/surface_fragment.glsl", "/three/build/three.module.js",
                                   "/three/build/three.core.js", "/three/examples/jsm/controls/OrbitControls.js",
-                                  "/scene/manifest.json", "/scene/data.bin", "/scene/files/pass_02.png",
-                                  "/scene/files/adaptive.png", "/static/viewer.js?v=1"])
+                                  "/scene/manifest.json", "/scene/data.bin", "/static/camera.js",
+                                  "/static/inspect.js", "/static/patchview.js", "/static/viewer.js?v=1"])
 def test_serves_its_files(server, path):
     status, body = get(server, path)
     assert status == 200 and body
 
 
-def test_manifest_lists_the_bake_pictures_in_order(server):
+def test_manifest_without_texels_has_no_inspection_and_no_patch_route(server):
     manifest = json.loads(get(server, "/scene/manifest.json")[1])
-    assert manifest["pictures"] == ["lightmap.png", "pass_01.png", "pass_02.png", "adaptive.png"]
+    assert manifest["texels"] is None and manifest["patch"] is None
     assert manifest["settings"]["exposure"] == 1.0 and len(manifest["lights"]) == 3
+    assert manifest["exposure_rule"] == {"percentile": 90.0, "target": 0.8, "luminance": [0.2126, 0.7152, 0.0722]}
+    assert get(server, "/scene/patch?x=1&y=1")[0] == 404
 
 
 def bundled_env(server: ViewerServer) -> tuple[dict, np.ndarray]:
@@ -122,6 +124,7 @@ def test_without_any_point_for_the_environment_the_page_gets_a_note_naming_the_o
     "/shaders/../render/renderer.py", "/shaders/%2e%2e%2frender%2frenderer.py", "/shaders/__init__.py",
     "/three/package.json", "/three/build/../../../etc/passwd", "/three/src/Three.js",
     "/scene/files/secret.txt", "/scene/files/../secret.txt", "/scene/files/%2e%2e%2fsecret.txt",
+    "/scene/files/lightmap.png", "/scene/files/pass_01.png", "/scene/lightmap.png",
     "/static/", "/static/%00", "/static/%ff", "/etc/passwd", "//etc/passwd", "/node_modules/three/package.json",
 ])
 def test_refuses_everything_else(server, path):
@@ -159,30 +162,6 @@ def test_symlinks_leading_out_are_not_followed(tmp_path):
     assert safe_file(root, "link.txt") is None
     assert safe_file(root, "dir/outside.txt") is None
     assert safe_file(root, "../outside.txt") is None
-
-
-@pytest.mark.parametrize("link", ["symlink", "hard link"])
-def test_bake_pictures_leading_out_or_gone_are_404(tmp_path, link):
-    """A picture symlinked or hard-linked out of the bake is not served (a hard link may lead
-    to any file, so none is served); one deleted after start-up is a 404 and the server goes
-    on serving."""
-    target = showcase_target(4, 8)
-    bake = tmp_path / "bake"
-    bake.mkdir()
-    (tmp_path / "outside.png").write_bytes(b"secret outside the bake")
-    if link == "symlink":
-        (bake / "lightmap.png").symlink_to(tmp_path / "outside.png")
-    else:
-        os.link(tmp_path / "outside.png", bake / "lightmap.png")
-    (bake / "pass_01.png").write_bytes(encode_png(np.zeros((2, 2, 3), np.uint8)))
-    target.bake_dir = bake
-    with make_server(target, target_settings(target), exposure=1.0) as srv:
-        status, body = get(srv, "/scene/files/lightmap.png")
-        assert status == 404 and b"secret" not in body
-        assert get(srv, "/scene/files/pass_01.png")[0] == 200
-        (bake / "pass_01.png").unlink()
-        assert get(srv, "/scene/files/pass_01.png")[0] == 404
-        assert get(srv, "/scene/manifest.json")[0] == 200
 
 
 @pytest.mark.parametrize("path, expected", [

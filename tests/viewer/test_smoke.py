@@ -1,6 +1,6 @@
-"""The viewer page as a person uses it: it loads, every model and option can be picked from
-the controls without a console error, lights can be aimed, given a cone, added and removed,
-and the screenshot shows the scene."""
+"""The viewer page as a person uses it: it loads, every model and option (overlays, marks,
+passes, the A/B split) can be picked from the controls without a console error, lights can
+be aimed, given a cone, added and removed, and the screenshot shows the scene."""
 from __future__ import annotations
 
 import math
@@ -10,18 +10,22 @@ import pytest
 from PIL import Image
 from render_scenes import showcase_target
 
-from patchlight.imaging.io import encode_png
 from patchlight.render import target_settings
 from patchlight.shading import FALLOFFS, LIGHT_KINDS, MODELS
+from patchlight.texels import Texels
 from patchlight.viewer.app import make_server
 
 
 @pytest.fixture(scope="module")
 def smoke(browser, tmp_path_factory):
+    """The showcase with stand-in bake arrays (two passes, every texel status, a few charts),
+    so the bake panel's controls are there to pick."""
     target = showcase_target()
+    rng = np.random.default_rng(0)
+    h, w = target.lightmap.shape[:2]
+    target.texels = Texels(np.stack([target.lightmap / 2, target.lightmap]), rng.integers(0, 4, (h, w)),
+                           rng.integers(0, 6, (h, w)), np.full((h, w, 3), 0.5), np.zeros((h, w, 3)), target.lightmap / 2)
     target.bake_dir = tmp_path_factory.mktemp("bake")
-    for name in ("lightmap.png", "pass_01.png", "adaptive.png"):
-        (target.bake_dir / name).write_bytes(encode_png(np.random.default_rng(0).integers(0, 255, (8, 8, 3), np.uint8)))
     out = tmp_path_factory.mktemp("smoke")
     with make_server(target, target_settings(target, model="lightmap")) as server:
         log = browser.run("smoke", server.url, out, timeout=300)
@@ -35,6 +39,9 @@ def test_page_loads_and_every_model_can_be_picked_without_console_errors(smoke):
     assert log["models"] == list(MODELS)
     for model in MODELS:
         assert log["frames"][model].startswith(model) and "ms/frame" in log["frames"][model]
+    assert log["surfaces"] == ["", "light", "adaptive", "charts"]
+    assert log["legend"] == ["uncovered", "gathered", "interpolated", "inside geometry", "chart border texels",
+                             "every other texel (64 x 32)"]
 
 
 def test_screenshot_shows_the_scene(smoke):

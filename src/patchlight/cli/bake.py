@@ -62,7 +62,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--first-accuracy", type=finite_number, default=DEFAULTS.first_accuracy,
                    help="adaptive sampling, first run, for the first passes (default %(default)s)")
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
-    p.add_argument("--save-passes", action="store_true", help="write pass_01.png, pass_02.png, ...")
+    p.add_argument("--save-passes", action="store_true", help="also write pass_01.png, pass_02.png, ... (texels.npz keeps every pass anyway)")
     p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
     p.add_argument("--directional", choices=DIRECTIONAL_MODES,
                    help="also bake the light's direction: L1 spherical harmonics (lightmap_sh.exr) or the "

@@ -33,17 +33,22 @@ def register(sub) -> None:
     p.add_argument("--exposure", default="auto", metavar="K", help="initial exposure K, or auto")
     p.add_argument("--envmap-from", metavar="X,Y,Z",
                    help="render the envmap's cube map from this point (default: as for render)")
+    p.add_argument("--patch", metavar="X,Y",
+                   help="a bake: show the view from lightmap texel X,Y (column, row) at start; "
+                        "clicking a surface shows its texel's")
     add_shading_options(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from ..patchview import parse_texel
     from ..viewer.app import make_server
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
+    patch = parse_texel(args.patch) if args.patch else None
     target, settings = load_target_and_settings(args, args.model)
-    server = make_server(target, settings, args.port, exposure, envmap_from)
+    server = make_server(target, settings, args.port, exposure, envmap_from, patch)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()

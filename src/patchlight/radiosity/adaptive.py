@@ -24,6 +24,7 @@ from ..atlas.patches import Patches
 from . import _kernels
 
 UNDECIDED, COMPUTED, INTERPOLATED, INSIDE = 0, 1, 2, 3
+STATUS_COLOURS = np.array([[0, 0, 0], [220, 40, 40], [40, 200, 60], [40, 80, 230]], np.uint8)  # sRGB, by status
 SPACING = 4
 
 
@@ -124,5 +125,4 @@ def interpolate(G: np.ndarray, status: np.ndarray, order: tuple[np.ndarray, np.n
 
 def debug_image(p: Patches, status: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8: computed red, interpolated green, inside geometry blue, uncovered black."""
-    colours = np.array([[0, 0, 0], [220, 40, 40], [40, 200, 60], [40, 80, 230]], np.uint8)
-    return p.to_image(colours[status])
+    return p.to_image(STATUS_COLOURS[status])

@@ -2,12 +2,11 @@
 
 A bake directory (written by `patchlight bake`, read by `patchlight.solved.load_solved`) holds
 scene.glb (world-space soup with the lightmap UVs in TEXCOORD_1), lightmap.exr (float incident
-light I, row 0 = v 0), bake.json and the pictures lightmap.png, pass_NN.png and adaptive.png,
-which the viewer lays over the surfaces.
+light I, row 0 = v 0), bake.json and texels.npz (every pass and the per-texel arrays the
+viewer lays over the surfaces and probes).
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,20 +16,21 @@ from ..errors import PatchlightError
 from ..scene.model import Scene
 from ..shading.directional import DirectionalLightmap
 from ..shading.surface import SurfaceArrays
-
-_BAKE_PICTURE = re.compile(r"^(lightmap|adaptive|pass_\d{2,})\.png$")
+from ..texels import Texels, read_bake_texels
 
 
 @dataclass
 class Target:
     """scene; surface: its per-vertex arrays; lightmap (H, W, 3) f32 incident light or None;
-    bake_dir: the bake directory or None; directional: the bake's directional lightmap or None."""
+    bake_dir: the bake directory or None; directional: the bake's directional lightmap or None;
+    texels: its texels.npz, or None."""
 
     scene: Scene
     surface: SurfaceArrays
     lightmap: np.ndarray | None = None
     bake_dir: Path | None = None
     directional: DirectionalLightmap | None = None
+    texels: Texels | None = None
 
     @classmethod
     def from_scene(cls, scene: Scene, lightmap: np.ndarray | None = None, bake_dir: Path | None = None) -> "Target":
@@ -43,14 +43,6 @@ class Target:
     def name(self) -> str:
         return str(self.bake_dir) if self.bake_dir else self.scene.label
 
-    def bake_pictures(self) -> list[str]:
-        """File names of the bake's lightmap-space pictures, lightmap first, then passes, adaptive."""
-        if self.bake_dir is None:
-            return []
-        names = [p.name for p in self.bake_dir.iterdir() if p.is_file() and _BAKE_PICTURE.match(p.name)]
-        order = {"lightmap.png": 0, "adaptive.png": 2}
-        return sorted(names, key=lambda n: (order.get(n, 1), n))
-
 
 def load_target(spec: str) -> Target:
     """A bake directory (`patchlight.solved.load_solved`: scene.glb, lightmap.exr, bake.json)
@@ -62,5 +54,8 @@ def load_target(spec: str) -> Target:
         solved = load_solved(spec)  # a complete bake, else its one-line error
         target = Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
         target.directional = DirectionalLightmap.load(target.bake_dir)
+        target.texels = read_bake_texels(spec)
+        if target.texels is not None and target.texels.status.shape != solved.lightmap.shape[:2]:
+            raise PatchlightError(f"{spec}: texels.npz and lightmap.exr differ in size (a mixture of two bakes)")
         return target
     return Target.from_scene(load_scene(spec))

@@ -1,6 +1,6 @@
 // surface.glsl: every chunk the surface shaders need, in dependency order. Included once
 // by surface_vertex.glsl and by surface_fragment.glsl; `MODEL` and the option macros
-// (PER_VERTEX, NORMAL_MAP, LIGHTMAP_SPECULAR, OVERLAY) come from the material's defines.
+// (PER_VERTEX, NORMAL_MAP, LIGHTMAP_SPECULAR, OVERLAY, OVERLAY_LIGHT, MARKS, RADIANCE_OUTPUT) come from the material's defines.
 #include "common.glsl"
 #include "falloff.glsl"
 #include "light_common.glsl"

@@ -3,11 +3,14 @@
 // surfaces and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
 // gloss (hlsl-lighting-models.txt's bump-mapping shader: min(specular, color.w)). The
 // lightmap-directional model redistributes the baked light for that normal.
-// OVERLAY shows a lightmap-space debug picture (a bake's pass or adaptive-sampling image)
-// as it is stored, without lighting or exposure.
+// OVERLAY shows a lightmap-space debug picture instead: with OVERLAY_LIGHT light values
+// (a pass's incident light), exposed like a picture; else display colours as they are
+// (texel status, charts). MARKS lays the RGBA marks map (texel checker, chart outlines) over
+// either. RADIANCE_OUTPUT writes the linear value before exposure (for automatic exposure).
 #include "surface.glsl"
 
 uniform sampler2D overlay_map;
+uniform sampler2D marks_map;
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -24,7 +27,7 @@ in float v_fresnel;
 
 void main() {
 #ifdef OVERLAY
-    gl_FragColor = vec4(texture(overlay_map, v_uv1).rgb, 1.0);
+    vec3 radiance = texture(overlay_map, v_uv1).rgb;
 #else
     vec4 color = surface_color(v_uv0, v_color);
 #ifdef PER_VERTEX
@@ -56,6 +59,17 @@ void main() {
 #if MODEL == MODEL_HEMISPHERE_RADIOSITY
     radiance = apply_fog(radiance, fog_factor(v_position, cameraPosition));
 #endif
-    gl_FragColor = vec4(display_encode(radiance, exposure), 1.0);
 #endif
+#if defined(RADIANCE_OUTPUT)
+    vec3 shown = radiance;
+#elif defined(OVERLAY) && !defined(OVERLAY_LIGHT)
+    vec3 shown = radiance;
+#else
+    vec3 shown = display_encode(radiance, exposure);
+#endif
+#ifdef MARKS
+    vec4 mark = texture(marks_map, v_uv1);
+    shown = mix(shown, mark.rgb, mark.a);
+#endif
+    gl_FragColor = vec4(shown, 1.0);
 }

@@ -1,10 +1,15 @@
 """Everything `patchlight view` serves for one target, built from the CPU renderer's pieces."""
 from __future__ import annotations
 
+import json
+import threading
+from pathlib import Path
+
 import numpy as np
 
 from ..errors import PatchlightError
 from ..imaging.exposure import auto_exposure
+from ..patchview import PatchViews
 from ..render.renderer import ENV_MODELS, Renderer
 from ..render.target import Target
 from ..shading.environment import ENV_SIZE
@@ -16,15 +21,21 @@ EXPOSURE_PREVIEW = 96  # pixels on a side of the CPU render that sets the automa
 
 
 def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposure: float | None = None,
-                envmap_from=None) -> ViewerServer:
+                envmap_from=None, patch: tuple[int, int] | None = None) -> ViewerServer:
     """A ViewerServer for `target`: default camera, the environment cube (from the sky, or
     rendered from `envmap_from` or a point the renderer chooses), the sky behind the scene,
-    and the exposure (automatic: from a small CPU render).
+    and the exposure (automatic: from a small CPU render). A bake with texels.npz answers the
+    view from any patch (`patch`: the texel shown first, checked here).
 
     The page may switch to the envmap or hemisphere-radiosity model at any time, so the cube
     is always made; when no point for it could be found (and none was asked for) and the first
     model does not need it, the page gets a black cube and a note naming the options instead
     of the viewer failing."""
+    patch_view = None if target.texels is None else PatchEndpoint(target.bake_dir)
+    if patch is not None:
+        if patch_view is None:
+            raise PatchlightError(f"--patch: {target.name} is not a bake with texels.npz (bake it to view from a patch)")
+        patch_view.views().at(*patch)  # one line now when no patch is there
     renderer = Renderer(target, envmap_from)
     renderer.require_inputs(settings)
     camera = renderer.default_camera()
@@ -39,5 +50,28 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
     if exposure is None:
         preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
-    manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note)
-    return ViewerServer(manifest_bytes(manifest), data, target.bake_dir, manifest["pictures"], port)
+    manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note, patch)
+    return ViewerServer(manifest_bytes(manifest), data, port, patch_view)
+
+
+class PatchEndpoint:
+    """/scene/patch: the JSON of PatchView.to_json for a texel, or {"error": one line}. The
+    bake's PatchViews is built on the first request (or by `views()`)."""
+
+    def __init__(self, bake_dir: Path):
+        self.bake_dir = bake_dir
+        self._lock = threading.Lock()
+        self._views: PatchViews | None = None
+
+    def views(self) -> PatchViews:
+        with self._lock:
+            if self._views is None:
+                self._views = PatchViews(self.bake_dir)
+            return self._views
+
+    def __call__(self, x: int, y: int) -> bytes:
+        try:
+            answer = self.views().at(x, y).to_json()
+        except PatchlightError as exc:
+            answer = {"error": str(exc)}
+        return json.dumps(answer, separators=(",", ":")).encode()

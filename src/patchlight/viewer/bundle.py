@@ -3,13 +3,18 @@
 Both come from the same Target and ShadingSettings the CPU renderer uses, so the page draws
 exactly the arrays (normals, tangents, UVs, linear float textures, lightmap, environment
 cube) that the reference shades. Arrays are little-endian float32 (indices uint32), each at a
-4-byte-aligned offset into data.bin; the manifest names them:
+4-byte-aligned offset into data.bin (the passes float16, the texel status uint8, charts
+int32); the manifest names them:
 
     arrays:    {name: {offset (bytes), shape, dtype}}
     groups:    [{start, count, material}]  index ranges of data.bin's "indices", by material
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
-    lights, settings, camera, bounds, lightmap, pictures, max_lights,
+    lights, settings, camera, bounds, lightmap, max_lights,
+    exposure_rule (the automatic exposure's percentile, target and luminance weights:
+                patchlight.imaging.exposure),
+    texels (a bake's texels.npz: passes, status, chart, rho, emission, excident, the status
+                names and colours; null without one), patch (the texel to view from first, or null),
     env (the environment cube), env_note (why env is a black stand-in, or null),
     sky (the cube drawn behind the scene: "env" when the environment is the sky, its own
                 cube when the environment was rendered from a point, null without a sky),
@@ -23,11 +28,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..ground.viewer import radiosity_bundle
+from ..imaging.color import LUMINANCE
+from ..imaging.exposure import AUTO_PERCENTILE, AUTO_TARGET
+from ..radiosity.adaptive import STATUS_COLOURS
 from ..imaging.io import json_text
 from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
 from ..shading.models import ShadingSettings
+from ..texels import STATUS_NAMES, Texels
 from ..volumes.viewer import volume_bundle
 
 
@@ -41,25 +50,27 @@ class _Packer:
         data = np.ascontiguousarray(array, dtype)
         self.arrays[name] = {"offset": self.offset, "shape": list(data.shape), "dtype": np.dtype(dtype).name}
         raw = data.astype(data.dtype.newbyteorder("<"), copy=False).tobytes()
-        self.parts.append(raw)
-        self.offset += len(raw)
+        self.parts.append(raw + bytes(-len(raw) % 4))
+        self.offset += len(self.parts[-1])
         return name
 
-    def add_texture(self, name: str, image: np.ndarray | None) -> str | None:
-        """(H, W, C) float image as (H, W, 4) RGBA float32 (alpha 1 where C < 4)."""
+    def add_texture(self, name: str, image: np.ndarray | None, dtype=np.float32) -> str | None:
+        """(H, W, C) float image as (H, W, 4) RGBA of dtype (alpha 1 where C < 4)."""
         if image is None:
             return None
         h, w = image.shape[:2]
-        rgba = np.ones((h, w, 4), np.float32)
+        rgba = np.ones((h, w, 4), dtype)
         rgba[..., :image.shape[2]] = image[..., :4]
-        return self.add(name, rgba)
+        return self.add(name, rgba, dtype)
 
 
 def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env: np.ndarray,
-                 exposure: float, sky: np.ndarray | None = None, env_note: str | None = None) -> tuple[dict, bytes]:
+                 exposure: float, sky: np.ndarray | None = None, env_note: str | None = None,
+                 patch: tuple[int, int] | None = None) -> tuple[dict, bytes]:
     """(manifest, data) for the page: see the module docstring. env: the environment cube
     (6, S, S, 4); sky: the cube of the sky drawn behind the scene (`env` itself when the
-    environment is the sky), or None for no sky; env_note: why env is a stand-in, or None."""
+    environment is the sky), or None for no sky; env_note: why env is a stand-in, or None;
+    patch: the texel (x, y) whose view the page shows first, or None."""
     s = target.surface
     pack = _Packer()
     for name in ("positions", "normals", "tangents", "uv0", "uv1", "colors"):
@@ -100,7 +111,9 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "env": pack.add("env", env),
         "env_note": env_note,
         "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
-        "pictures": target.bake_pictures(),
+        "exposure_rule": {"percentile": AUTO_PERCENTILE, "target": AUTO_TARGET, "luminance": LUMINANCE},
+        "texels": texels_bundle(pack, target.texels),
+        "patch": None if patch is None else list(patch),
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),
         "volume": volume_bundle(pack, settings),
@@ -114,6 +127,22 @@ def _directional_bundle(pack: _Packer, directional) -> dict | None:
         return None
     return {"mode": directional.mode,
             "maps": [pack.add_texture(f"directional_map{k}", m) for k, m in enumerate(directional.maps)]}
+
+
+def texels_bundle(pack: _Packer, texels: Texels | None) -> dict | None:
+    """The manifest's `texels`: array names of a bake's texels.npz (passes as float16 RGBA
+    textures), with the names and debug colours of the texel status."""
+    if texels is None:
+        return None
+    height, width = texels.status.shape
+    return {
+        "width": width, "height": height,
+        "passes": [pack.add_texture(f"pass_{k}", image, np.float16) for k, image in enumerate(texels.passes, start=1)],
+        "status": pack.add("status", texels.status, np.uint8),
+        "chart": pack.add("chart", texels.chart, np.int32),
+        **{name: pack.add(name, getattr(texels, name)) for name in ("rho", "emission", "excident")},
+        "status_names": list(STATUS_NAMES), "status_colours": STATUS_COLOURS.tolist(),
+    }
 
 
 def manifest_bytes(manifest: dict) -> bytes:

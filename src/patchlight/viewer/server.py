@@ -2,12 +2,12 @@
 
 It serves the page (static/), the GLSL chunks (patchlight/shaders/*.glsl), the three.js
 build files the page imports (from the repository's node_modules/three), the scene bundle
-(/scene/manifest.json, /scene/data.bin) and the bake's lightmap-space pictures
-(/scene/files/<name>). Any other path (.., absolute paths, encoded traversal, symlinks that
-lead out of the served directory, names too long for the file system, files not on the list,
-and bake files with more than one hard link, which may be a link to any file outside) gets
-404; a request target longer than MAX_TARGET characters gets 414. Connections queue up to
-BACKLOG deep, and a client silent for CLIENT_TIMEOUT_S seconds is dropped.
+(/scene/manifest.json, /scene/data.bin) and, for a bake, the view from a patch
+(/scene/patch?x=X&y=Y: JSON, patchlight.patchview). Any other path (.., absolute paths,
+encoded traversal, symlinks that lead out of the served directory, names too long for the
+file system, files not on the list) gets 404; a request target longer than MAX_TARGET
+characters gets 414. Connections queue up to BACKLOG deep, and a client silent for
+CLIENT_TIMEOUT_S seconds is dropped.
 
 Only requests addressed to the server itself are answered: a Host header other than
 127.0.0.1:PORT or localhost:PORT (or none) gets 403, so a page of another site whose name
@@ -21,7 +21,8 @@ import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
-from urllib.parse import unquote, urlsplit
+from typing import Callable
+from urllib.parse import parse_qs, unquote, urlsplit
 
 from ..errors import PatchlightError
 
@@ -52,10 +53,10 @@ def find_three() -> Path:
                           "(or set PATCHLIGHT_NODE_MODULES to a node_modules holding three)")
 
 
-def safe_file(root: Path, relative: str, single_link: bool = False) -> Path | None:
+def safe_file(root: Path, relative: str) -> Path | None:
     """The regular file `relative` names inside `root`, or None when the name is unsafe
-    (empty, absolute, '..' or '.' segments, backslashes, NUL, too long for the file system),
-    resolves outside root, or (single_link) has other hard links."""
+    (empty, absolute, '..' or '.' segments, backslashes, NUL, too long for the file system)
+    or resolves outside root."""
     if not relative or "\\" in relative or "\0" in relative or relative.startswith("/"):
         return None
     if any(part in ("", ".", "..") for part in relative.split("/")):
@@ -65,8 +66,6 @@ def safe_file(root: Path, relative: str, single_link: bool = False) -> Path | No
         candidate = (root / relative).resolve()
         if not candidate.is_relative_to(root) or not candidate.is_file():
             return None
-        if single_link and candidate.stat().st_nlink != 1:
-            return None
     except OSError:  # a name too long, a loop of links
         return None
     return candidate
@@ -75,11 +74,11 @@ def safe_file(root: Path, relative: str, single_link: bool = False) -> Path | No
 class ViewerServer:
     """Serves one scene bundle. port 0 picks a free port; `url` is the page's address."""
 
-    def __init__(self, manifest: bytes, data: bytes, bake_dir: Path | None = None, pictures=(), port: int = 0):
-        """bake_dir: the directory of the bake's pictures; pictures: the names there that may be served."""
+    def __init__(self, manifest: bytes, data: bytes, port: int = 0,
+                 patch_view: Callable[[int, int], bytes] | None = None):
+        """patch_view(x, y): the JSON body of the view from texel (x, y), or None without a bake."""
         self.routes = {"/scene/manifest.json": manifest, "/scene/data.bin": data}
-        self.bake_dir = bake_dir
-        self.pictures = frozenset(pictures)
+        self.patch_view = patch_view
         self.three = find_three()
         handler = type("Handler", (_Handler,), {"viewer": self})
         try:
@@ -104,8 +103,11 @@ class ViewerServer:
         allowed = {f"{name}:{port}" for name in names} | (set(names) if port == 80 else set())
         return host.strip().lower() in allowed
 
-    def resolve(self, path: str) -> tuple[bytes | Path | None, str]:
-        """(body or file, content type) for a request path, or (None, "") for 404."""
+    def resolve(self, path: str, query: str = "") -> tuple[bytes | Path | None, str]:
+        """(body or file, content type) for a request path and query, or (None, "") for 404."""
+        if path == "/scene/patch" and self.patch_view is not None:
+            texel = self._texel(query)
+            return (None, "") if texel is None else (self.patch_view(*texel), CONTENT_TYPES[".json"])
         if path in ("/", "/index.html"):
             return STATIC / "index.html", CONTENT_TYPES[".html"]
         if path in self.routes:
@@ -115,8 +117,18 @@ class ViewerServer:
             return None, ""
         return file, CONTENT_TYPES.get(file.suffix, "application/octet-stream")
 
+    @staticmethod
+    def _texel(query: str) -> tuple[int, int] | None:
+        """(x, y) of a query x=X&y=Y, whole numbers >= 0, or None."""
+        fields = parse_qs(query, strict_parsing=False)
+        try:
+            x, y = (int(fields[k][0]) for k in ("x", "y"))
+        except (KeyError, ValueError):
+            return None
+        return (x, y) if x >= 0 and y >= 0 else None
+
     def _file(self, path: str) -> Path | None:
-        """The file a /static/, /shaders/, /three/ or /scene/files/ path names, if it may be served."""
+        """The file a /static/, /shaders/ or /three/ path names, if it may be served."""
         prefix, _, rest = path[1:].partition("/")
         name = unquote(rest, errors="strict")
         if prefix == "static":
@@ -125,9 +137,6 @@ class ViewerServer:
             return safe_file(SHADERS, name)
         if prefix == "three" and name in THREE_FILES:
             return safe_file(self.three, name)
-        if prefix == "scene" and name.startswith("files/") and self.bake_dir is not None:
-            picture = name[len("files/"):]
-            return safe_file(self.bake_dir, picture, single_link=True) if picture in self.pictures else None
         return None
 
     def serve_forever(self) -> None:
@@ -177,7 +186,8 @@ class _Handler(BaseHTTPRequestHandler):
                        send_body)
             return
         try:
-            body, content_type = self.viewer.resolve(urlsplit(self.path).path)
+            url = urlsplit(self.path)
+            body, content_type = self.viewer.resolve(url.path, url.query)
         except (UnicodeDecodeError, ValueError):
             body, content_type = None, ""
         if isinstance(body, Path):

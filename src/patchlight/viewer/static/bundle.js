@@ -20,7 +20,8 @@ export class Bundle {
   array(name) {
     const spec = this.manifest.arrays[name];
     const count = spec.shape.reduce((a, b) => a * b, 1);
-    const Type = { uint32: Uint32Array, uint8: Uint8Array }[spec.dtype] ?? Float32Array;
+    const Type = { uint32: Uint32Array, uint8: Uint8Array, int32: Int32Array, float16: Uint16Array }[spec.dtype]
+      ?? Float32Array;  // float16: the raw halves (THREE.DataUtils.fromHalfFloat reads one)
     return new Type(this.data, spec.offset, count);
   }
 
@@ -37,8 +38,8 @@ export class Bundle {
     return g;
   }
 
-  // (H, W, 4) float32 or uint8 array -> RGBA texture, linear filtering, no mipmaps, row 0 at v = 0
-  // (uint8 texels read as value / 255, as a GPU samples an 8-bit map).
+  // (H, W, 4) float32, float16 or uint8 array -> RGBA texture, linear filtering, no mipmaps, row 0
+  // at v = 0 (uint8 texels read as value / 255, as a GPU samples an 8-bit map).
   texture(name, wrap = THREE.RepeatWrapping) {
     const [height, width] = this.manifest.arrays[name].shape;
     return dataTexture(this.array(name), width, height, wrap);
@@ -62,7 +63,8 @@ export class Bundle {
 }
 
 export function dataTexture(pixels, width, height, wrap = THREE.RepeatWrapping) {
-  const type = pixels instanceof Uint8Array ? THREE.UnsignedByteType : THREE.FloatType;
+  const type = pixels instanceof Uint8Array ? THREE.UnsignedByteType
+    : pixels instanceof Uint16Array ? THREE.HalfFloatType : THREE.FloatType;
   const t = new THREE.DataTexture(pixels, width, height, THREE.RGBAFormat, type);
   t.wrapS = t.wrapT = wrap;
   t.minFilter = t.magFilter = THREE.LinearFilter;

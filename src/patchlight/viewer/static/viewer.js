@@ -1,9 +1,13 @@
 // The patchlight viewer: the scene bundle drawn with ShaderMaterials built from the GLSL
-// chunks, an orbit camera, and controls for the model, exposure, options and lights.
+// chunks, an orbit camera, and controls for the model, exposure (per model, automatic on
+// switching), options, lights, the bake's passes and debug overlays, the value probe, the
+// view from a patch and an A/B split of two models.
 // window.patchlight exposes the same renderer to tests (renderCase reads back the pixels).
 import * as THREE from 'three';
-import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { constantTexture, loadBundle } from './bundle.js';
+import { CameraRig } from './camera.js';
+import { Inspector, OVERLAYS } from './inspect.js';
+import { PatchPanel, legendRows } from './patchview.js';
 import { installVolume, volumeUniforms } from './ambient_cube.js';
 import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
@@ -29,15 +33,20 @@ class Viewer {
       model: s.model, perVertex: s.per_vertex, normalMap: s.normal_map, lightmapSpecular: s.lightmap_specular,
       exposure: s.exposure, reflectivity: s.reflectivity, overlay: '', ambientCubeNaive: s.ambient_cube_naive,
       lights: this.manifest.lights.map((l) => ({ ...l })),
+      exposures: {},  // exposure of each model (and of the incident-light overlay) once shown
+      pass: 0, checker: false, outlines: false, split: '',
     };
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(1);
     this.renderer.setClearColor(0x000000, 0);
-    this.pictures = new Map();
     this.uniforms = this.sharedUniforms();
+    this.lightmapTexture = this.uniforms.lightmap.value;
+    this.inspector = new Inspector(this);
+    this.state.pass = this.inspector.passes;  // the final solution
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
     this.scene = new THREE.Scene();
-    this.scene.add(new THREE.Mesh(bundle.geometry(), this.materials));
+    this.mesh = new THREE.Mesh(bundle.geometry(), this.materials);
+    this.scene.add(this.mesh);
     const sky = this.manifest.sky;  // the sky behind the scene: the env cube itself, or its own cube
     this.sky = skyDome(sky === this.manifest.env ? this.uniforms.env_map.value : sky && bundle.cube(sky),
       this.uniforms.exposure, displayGlsl);
@@ -47,9 +56,10 @@ class Viewer {
     const [lo, hi] = this.manifest.bounds.map((v) => new THREE.Vector3(...v));
     this.radius = Math.max(lo.distanceTo(hi) / 2, 1e-3);
     this.camera = new THREE.PerspectiveCamera(45, 1, this.radius * 1e-3, this.radius * 100);
-    this.controls = new OrbitControls(this.camera, canvas);
-    const c = this.manifest.camera;
-    this.setCamera(c.eye, c.target, c.fov);
+    this.rig = new CameraRig(this, canvas);
+    this.controls = this.rig.controls;
+    this.rig.reset();
+    this.patch = new PatchPanel(this);
     this.apply();
     return this;
   }
@@ -78,6 +88,7 @@ class Viewer {
       ...this.directionalUniforms(),
       exposure: { value: s.exposure },
       overlay_map: { value: constantTexture([0, 0, 0, 1]) },
+      marks_map: { value: constantTexture([0, 0, 0, 0]) },
       ...radiosityUniforms(this.bundle, this.manifest.ground_map),
       ...volumeUniforms(this.bundle),
     };
@@ -134,6 +145,10 @@ class Viewer {
     if (st.ambientCubeNaive) defines.AMBIENT_CUBE_NAIVE = '';
     if (this.manifest.directional?.mode === 'sh') defines.DIRECTIONAL_SH = '';
     if (st.overlay) defines.OVERLAY = '';
+    if (st.overlay === 'light') defines.OVERLAY_LIGHT = '';
+    const marks = this.inspector.marks(st.checker, st.outlines);
+    if (marks) defines.MARKS = '';
+    if (this.radianceOutput) defines.RADIANCE_OUTPUT = '';
     const key = JSON.stringify(defines);
     for (const material of this.materials) {
       if (material.userData.defines !== key) {
@@ -145,7 +160,9 @@ class Viewer {
     }
     const u = this.uniforms;
     u.exposure.value = st.exposure;
-    u.overlay_map.value = st.overlay ? this.picture(st.overlay) : u.overlay_map.value;
+    u.lightmap.value = this.inspector.lightTexture(st.pass);
+    if (st.overlay) u.overlay_map.value = this.inspector.overlayTexture(st.overlay, st.pass);
+    if (marks) u.marks_map.value = marks;
     const lights = st.lights.slice(0, this.maxLights);
     u.light_count.value = lights.length;
     lights.forEach((l, i) => {
@@ -161,25 +178,121 @@ class Viewer {
     this.onApply?.();
   }
 
-  picture(name) {
-    if (!this.pictures.has(name)) {
-      const texture = new THREE.TextureLoader().load(`/scene/files/${encodeURIComponent(name)}`, () => this.draw());
-      texture.flipY = false;
-      texture.colorSpace = THREE.NoColorSpace;
-      texture.generateMipmaps = false;
-      texture.minFilter = THREE.LinearFilter;
-      texture.magFilter = THREE.NearestFilter;  // debug pictures: show their texels
-      this.pictures.set(name, texture);
-    }
-    return this.pictures.get(name);
+  // What the exposure of the current view is kept under: the model, or the overlay of light values.
+  exposureKey(model = this.state.model) {
+    return this.state.overlay === 'light' ? 'overlay: incident light' : model;
   }
 
+  // Show `model`: the exposure it had, or, the first time, the automatic one.
+  switchModel(model) {
+    this.switchView(() => { this.state.model = model; });
+  }
+
+  setOverlay(name) {
+    this.switchView(() => { this.state.overlay = name; });
+  }
+
+  switchView(change) {
+    const st = this.state;
+    st.exposures[this.exposureKey()] = st.exposure;
+    change();
+    st.exposure = st.exposures[this.exposureKey()] ?? this.autoExposure();
+    this.apply();
+  }
+
+  // The automatic exposure of the current view, stored for it.
+  autoExposure() {
+    const k = this.measureExposure();
+    this.state.exposures[this.exposureKey()] = k;
+    return k;
+  }
+
+  // The bake's `auto` rule (patchlight.imaging.exposure) on what the canvas shows: the view
+  // drawn at linear radiance into a small float target, its lit luminances' percentile put
+  // at the target display value (1 - exp(-k x)).
+  measureExposure() {
+    const rule = this.manifest.exposure_rule;
+    const width = 64;
+    const height = Math.max(1, Math.round(width / this.camera.aspect));
+    const target = new THREE.WebGLRenderTarget(width, height, { type: THREE.FloatType });
+    const sky = this.sky.visible;
+    this.sky.visible = false;
+    this.radianceOutput = true;
+    this.apply();
+    this.renderer.setRenderTarget(target);
+    this.renderer.clear();
+    this.renderer.render(this.scene, this.camera);
+    const pixels = new Float32Array(width * height * 4);
+    this.renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
+    this.renderer.setRenderTarget(null);
+    target.dispose();
+    this.radianceOutput = false;
+    this.sky.visible = sky;
+    this.apply();
+    const lit = [];
+    for (let i = 0; i < width * height; i++) {
+      const l = rule.luminance.reduce((sum, w, c) => sum + w * pixels[i * 4 + c], 0);
+      if (pixels[i * 4 + 3] > 0 && l > 0) lit.push(l);
+    }
+    if (!lit.length) return 1;
+    lit.sort((a, b) => a - b);
+    const at = (lit.length - 1) * rule.percentile / 100;  // NumPy's linear percentile
+    const lo = Math.floor(at);
+    const value = lit[lo] + (lit[Math.min(lo + 1, lit.length - 1)] - lit[lo]) * (at - lo);
+    return -Math.log(1 - rule.target) / value;
+  }
+
+  // The surface under a canvas position (NDC, y up): three's intersection, or null.
+  pick(ndc) {
+    const raycaster = new THREE.Raycaster();
+    raycaster.setFromCamera(new THREE.Vector2(...ndc), this.camera);
+    return raycaster.intersectObject(this.mesh, false)[0] ?? null;
+  }
+
+  // The value probe at a canvas position: the texel under it (lightmap UVs interpolated at
+  // the hit) and, for a bake with texels.npz, everything the bake holds there; null on no surface.
+  probe(ndc) {
+    const hit = this.pick(ndc);
+    if (!hit) return null;
+    const g = this.mesh.geometry;
+    const corners = [hit.face.a, hit.face.b, hit.face.c];
+    const position = g.getAttribute('position');
+    const [a, b, c] = corners.map((i) => new THREE.Vector3().fromBufferAttribute(position, i));
+    const weights = THREE.Triangle.getBarycoord(hit.point, a, b, c, new THREE.Vector3()).toArray();
+    const uv = g.getAttribute('lightmap_uv');
+    const uv1 = [0, 1].map((k) => corners.reduce((sum, i, j) => sum + weights[j] * uv.array[i * 2 + k], 0));
+    const result = { ndc, point: hit.point.toArray(), uv1, camera: this.cameraJson() };
+    const t = this.inspector;
+    if (t.t) {
+      const x = Math.min(t.width - 1, Math.max(0, Math.floor(uv1[0] * t.width)));
+      const y = Math.min(t.height - 1, Math.max(0, Math.floor(uv1[1] * t.height)));
+      Object.assign(result, t.probe(x, y, this.state.pass));
+    }
+    return result;
+  }
+
+  cameraJson() {
+    return { eye: this.camera.position.toArray(), target: this.controls.target.toArray(), fov: this.camera.fov,
+      aspect: this.camera.aspect };
+  }
+
+  // Compare `model` (or '' for none) on the right half with the current model on the left.
+  setSplit(model) {
+    const st = this.state;
+    if (model && !(model in st.exposures) && this.exposureKey(model) === model) {
+      const shown = st.model;
+      st.exposures[this.exposureKey()] = st.exposure;
+      st.model = model;
+      this.autoExposure();
+      st.model = shown;
+      this.apply();
+    }
+    st.split = model;
+  }
+
+  // Look from eye at target exactly (tests); the controls orbit about target.
   setCamera(eye, target, fov) {
-    this.camera.fov = fov;
-    this.camera.position.set(...eye);
-    this.controls.target.set(...target);
-    this.camera.lookAt(this.controls.target);
-    this.camera.updateProjectionMatrix();
+    this.rig.place(new THREE.Vector3(...eye), new THREE.Vector3(...target), fov);
   }
 
   setSize(width, height) {
@@ -191,12 +304,32 @@ class Viewer {
   // Render one frame; returns its time in milliseconds (GPU work included: a 1-pixel read waits for it).
   draw() {
     const start = performance.now();
-    this.renderer.render(this.scene, this.camera);
+    if (this.state.split) this.drawSplit();
+    else this.renderer.render(this.scene, this.camera);
     const gl = this.renderer.getContext();
     gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
     const ms = performance.now() - start;
     this.onFrame?.(ms);
     return ms;
+  }
+
+  // The current model on the left half, state.split on the right, each at its exposure.
+  drawSplit() {
+    const st = this.state;
+    const { width, height } = this.renderer.getContext().canvas;
+    const half = Math.floor(width / 2);
+    const shown = { model: st.model, exposure: st.exposure };
+    this.renderer.setScissorTest(true);
+    for (const [model, x, w] of [[shown.model, 0, half], [st.split, half, width - half]]) {
+      st.model = model;
+      st.exposure = model === shown.model ? shown.exposure : st.exposures[this.exposureKey(model)] ?? shown.exposure;
+      this.apply();
+      this.renderer.setScissor(x, 0, w, height);
+      this.renderer.render(this.scene, this.camera);
+    }
+    this.renderer.setScissorTest(false);
+    Object.assign(st, shown);
+    this.apply();
   }
 
   // The canvas as RGBA bytes, row 0 at the top.
@@ -227,20 +360,30 @@ function hexToLinear(hex) {
 function bindControls(viewer, redraw) {
   const st = viewer.state;
   $('title').textContent = viewer.manifest.name;
-  for (const m of viewer.models) $('model').add(new Option(m, m));
+  for (const m of viewer.models) {
+    $('model').add(new Option(m, m));
+    $('split').add(new Option(m, m));
+  }
   $('model').value = st.model;
-  for (const p of viewer.manifest.pictures) $('surface').add(new Option(p, p));
-  $('surface-row').hidden = viewer.manifest.pictures.length === 0;
+  const inspector = viewer.inspector;
+  const overlays = inspector.t ? Object.keys(OVERLAYS) : [];
+  for (const name of overlays) $('surface').add(new Option(OVERLAYS[name], name));
+  $('surface-row').hidden = overlays.length === 0;
+  $('inspect-panel').hidden = !inspector.t;
   const notes = [];
   if (!viewer.manifest.lightmap) notes.push('no lightmap: the lightmap model shows black (view a bake directory)');
   if (viewer.manifest.lightmap && !viewer.manifest.directional) {
     notes.push('no directional lightmap: lightmap-directional shows the plain lightmap (bake with --directional)');
   }
+  if (viewer.manifest.lightmap && !inspector.t) notes.push('this bake has no texels.npz: bake it again for passes, overlays, probe and patch view');
   if (viewer.manifest.env_note) notes.push(viewer.manifest.env_note);
   if (viewer.manifest.lights_dropped) notes.push(`${viewer.manifest.lights_dropped} lights beyond ${viewer.maxLights} not shown`);
   $('notes').textContent = notes.join('; ');
-  const exposureLabel = () => { $('exposure-value').value = st.exposure.toPrecision(3); };
-  $('exposure').value = Math.log10(st.exposure);
+  const exposureLabel = () => {
+    $('exposure').value = Math.log10(st.exposure);
+    $('exposure-value').value = st.exposure.toPrecision(3);
+    viewer.patch.draw();
+  };
   exposureLabel();
   $('per-vertex').checked = st.perVertex;
   $('normal-map').checked = st.normalMap;
@@ -249,9 +392,29 @@ function bindControls(viewer, redraw) {
   $('reflectivity').value = st.reflectivity ?? 0.5;
 
   const change = (fn) => (event) => { fn(event); viewer.apply(); redraw(); };
-  $('model').onchange = change(() => { st.model = $('model').value; });
-  $('surface').onchange = change(() => { st.overlay = $('surface').value; });
-  $('exposure').oninput = change(() => { st.exposure = 10 ** Number($('exposure').value); exposureLabel(); });
+  const inspected = () => { showInspection(viewer); exposureLabel(); };
+  $('model').onchange = change(() => { viewer.switchModel($('model').value); inspected(); });
+  $('surface').onchange = change(() => { viewer.setOverlay($('surface').value); inspected(); });
+  $('exposure').oninput = change(() => {
+    st.exposure = 10 ** Number($('exposure').value);
+    st.exposures[viewer.exposureKey()] = st.exposure;
+    exposureLabel();
+    showInspection(viewer);
+  });
+  $('exposure-auto').onclick = change(() => { st.exposure = viewer.autoExposure(); inspected(); });
+  $('split').onchange = change(() => { viewer.setSplit($('split').value); });
+  $('frame-all').onclick = () => { viewer.rig.frameAll(); redraw(); };
+  $('camera-reset').onclick = () => { viewer.rig.reset(); redraw(); };
+  $('pass').max = String(Math.max(1, inspector.passes));
+  $('pass').value = String(st.pass);
+  const passLabel = () => {
+    $('pass-value').value = st.pass >= inspector.passes ? `${st.pass} of ${inspector.passes} (final)` : `${st.pass} of ${inspector.passes}`;
+  };
+  passLabel();
+  $('pass').oninput = change(() => { st.pass = Number($('pass').value); passLabel(); showInspection(viewer); });
+  $('checker').onchange = change(() => { st.checker = $('checker').checked; showInspection(viewer); });
+  $('outlines').onchange = change(() => { st.outlines = $('outlines').checked; showInspection(viewer); });
+  showInspection(viewer);
   $('per-vertex').onchange = change(() => {
     st.perVertex = $('per-vertex').checked;
     if (st.perVertex) { st.normalMap = false; $('normal-map').checked = false; }
@@ -268,6 +431,58 @@ function bindControls(viewer, redraw) {
   $('reflectivity-material').onchange = reflectivity;
 
   bindLights(viewer, change);
+}
+
+// The legend of what the surfaces show, the atlas view and the probe's numbers, as they are now.
+function showInspection(viewer) {
+  const st = viewer.state;
+  const t = viewer.inspector;
+  if (!t.t) return;
+  $('legend').replaceChildren(...legendRows(t.legend(st.overlay, st.checker, st.outlines)));
+  const probed = viewer.probed?.texel ? viewer.inspector.probe(...viewer.probed.texel, st.pass) : null;
+  t.drawAtlas($('atlas'), st.overlay, st.exposure, st.pass, t.marks(st.checker, st.outlines), probed?.texel);
+  if (!viewer.probed) return;
+  const v = { ...viewer.probed, ...probed };
+  const rgb = (c) => c.map((x) => x.toPrecision(4)).join('  ');
+  const lines = [`texel ${v.texel.join(',')}  chart ${v.chart}  ${v.status}`, `I    ${rgb(v.I)}`, `B    ${rgb(v.B)}`,
+    `rho  ${rgb(v.rho)}`, `E    ${rgb(v.E)}`];
+  if (v.pass) lines.push(`I after pass ${v.pass.k}: ${rgb(v.pass.I)}`);
+  if (v.point) lines.push(`at   ${rgb(v.point)} m`);
+  $('probe').textContent = lines.join('\n');
+}
+
+// Click: probe the texel under the pointer and view from its patch; double click: orbit about
+// the point; the atlas view: click a texel to probe it.
+function bindInspection(viewer, canvas, redraw) {
+  const ndcOf = (event) => {
+    const r = canvas.getBoundingClientRect();
+    return [(event.clientX - r.left) / r.width * 2 - 1, 1 - (event.clientY - r.top) / r.height * 2];
+  };
+  let down = null;
+  canvas.addEventListener('pointerdown', (e) => { down = [e.clientX, e.clientY]; });
+  canvas.addEventListener('pointerup', (e) => {
+    if (!down || Math.hypot(e.clientX - down[0], e.clientY - down[1]) > 3 || e.button !== 0) return;
+    inspectAt(viewer, viewer.probe(ndcOf(e)));
+  });
+  canvas.addEventListener('dblclick', (e) => { if (viewer.rig.pivotAt(ndcOf(e))) redraw(); });
+  $('atlas').addEventListener('click', (e) => {
+    const t = viewer.inspector;
+    const r = e.target.getBoundingClientRect();
+    const x = Math.min(t.width - 1, Math.floor((e.clientX - r.left) / r.width * t.width));
+    const y = Math.min(t.height - 1, Math.floor((e.clientY - r.top) / r.height * t.height));
+    inspectAt(viewer, t.probe(x, y, viewer.state.pass));
+  });
+  window.addEventListener('keydown', (e) => {
+    if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
+    if (viewer.rig.key(e)) redraw();
+  });
+}
+
+function inspectAt(viewer, probed) {
+  viewer.probed = probed;
+  if (!probed) { $('probe').textContent = 'no surface there'; return; }
+  showInspection(viewer);
+  if (probed.texel && probed.status !== 'uncovered') viewer.patch.show(...probed.texel);
 }
 
 // Aim of a light as the page shows it: azimuth (degrees from +Z towards +X) and elevation
@@ -396,6 +611,7 @@ async function main() {
     $('stats').textContent = `${viewer.state.model}  ${ms.toFixed(1)} ms/frame  ${triangles} triangles`;
   };
   bindControls(viewer, redraw);
+  bindInspection(viewer, canvas, redraw);
   viewer.groundMap.bindControls(redraw);
   const volume = installVolume(viewer, redraw, testing);
   const fit = () => { viewer.setSize(canvas.clientWidth, canvas.clientHeight); redraw(); };
@@ -404,10 +620,24 @@ async function main() {
     viewer.controls.addEventListener('change', redraw);
     fit();
   }
+  const patch = viewer.manifest.patch;
+  if (patch) viewer.patch.show(...patch);
   window.patchlight = {
     viewer,
     volume,
     models: viewer.models,
+    // The probe at a canvas position (NDC): what the click shows, and the patch view it loads.
+    async probe(ndc) {
+      inspectAt(viewer, viewer.probe(ndc));
+      const view = viewer.probed?.texel && viewer.probed.status !== 'uncovered' ? await viewer.patch.loading : null;
+      return { probe: viewer.probed, patch: view, text: $('probe').textContent };
+    },
+    // Look from eye at target (fov degrees) and draw.
+    look({ eye, target, fov }) { viewer.setCamera(eye, target, fov); redraw(); },
+    patchPixels: () => ['patch-picture', 'patch-weights'].map((id) => {
+      const c = $(id);
+      return { width: c.width, height: c.height, data: Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data) };
+    }),
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
     // reflectivity, overlay, sky (draw the sky behind), camera {eye, target, fov}, width,
     // height; lights: the lights to draw, as the manifest lists them (default: the manifest's),
