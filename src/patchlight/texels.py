@@ -4,7 +4,8 @@ The one owner of this file (writer and reader). It keeps what the viewer's pass 
 value probe and patch view read, all (H, W, ...) in lightmap texels, row 0 at v = 0:
 
     passes    (P, H, W, 3) float16  incident light I after each pass, filled and dilated as
-                                    lightmap.exr is (pass 1: direct + sky + emitters)
+                                    lightmap.exr is, not seam-stitched (pass 1: direct + sky
+                                    + emitters)
     status    (H, W) int8           STATUS_NAMES index: uncovered, gathered, interpolated, inside
     chart     (H, W) int32          UV chart id, -1 uncovered
     rho       (H, W, 3) float32     reflectance the bake gave the patch
