@@ -30,8 +30,8 @@ import numpy as np
 from ..ground.viewer import radiosity_bundle
 from ..imaging.color import LUMINANCE
 from ..imaging.exposure import AUTO_PERCENTILE, AUTO_TARGET
-from ..radiosity.adaptive import STATUS_COLOURS
 from ..imaging.io import json_text
+from ..radiosity.adaptive import STATUS_COLOURS
 from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
