@@ -315,7 +315,7 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
     stale globs include BAKE_STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, write_exr, write_json, write_png
+    from .imaging.io import encode_png, write_bytes, write_exr, write_json, write_png
     from .scene.gltf import save_baked_glb
 
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
