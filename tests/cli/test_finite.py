@@ -97,6 +97,11 @@ def test_api_values_are_checked_where_they_enter():
         bake(b.scene("floor", sky=Sky.uniform((1e30, 1, 1))), BakeSettings(resolution=16))
     with pytest.raises(PatchlightError, match="sun-angle"):
         VolumeSettings(sun_angle=float("nan"))
+    for name, bad in (("uv0", -np.inf), ("normals", np.nan)):
+        scene = b.scene("floor", sky=Sky.uniform((1, 1, 1)))
+        getattr(scene, name)[0, 0] = bad
+        with pytest.raises(PatchlightError, match="1 vertex .* are NaN or infinite"):
+            bake(scene, BakeSettings(resolution=16))
 
 
 def test_arrays_written_are_finite_and_json_is_strict(tmp_path):

@@ -180,7 +180,7 @@ class Scene:
         return lamps or emissive or sky_lit
 
     def validate(self) -> None:
-        """Refuse NaN or infinite positions, out-of-range indices, and light values (lamps,
+        """Refuse NaN or infinite vertex attributes, out-of-range indices, and light values (lamps,
         emission, sky) that are not finite or beyond MAX_LIGHT, with one clear line."""
         for light in self.lights:
             light.validate(self.label)
@@ -188,9 +188,12 @@ class Scene:
             check_light_values(material.emissive, f"{self.label}: material {material.name!r} emission")
         if self.sky is not None:
             self.sky.validate(self.label)
-        if not np.all(np.isfinite(self.positions)):
-            bad = int(np.count_nonzero(~np.isfinite(self.positions).all(axis=1)))
-            raise PatchlightError(f"{self.label}: {bad} vertex positions are NaN or infinite")
+        attributes = {"positions": self.positions, "normals": self.normals, "TEXCOORD_0": self.uv0,
+                      "TEXCOORD_1": self.uv1, "tangents": self.tangents, "colours": self.colors}
+        for name, values in attributes.items():
+            if values is not None and not np.all(np.isfinite(values)):
+                bad = int(np.count_nonzero(~np.isfinite(values).all(axis=1)))
+                raise PatchlightError(f"{self.label}: {bad} vertex {name} are NaN or infinite")
         if self.indices.size and (self.indices.min() < 0 or self.indices.max() >= len(self.positions)):
             raise PatchlightError(f"{self.label}: triangle indices point outside the vertex array")
         if self.n_triangles == 0:
