@@ -8,6 +8,8 @@ from __future__ import annotations
 import http.client
 import json
 import math
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,7 +23,7 @@ from patchlight.config import BakeSettings
 from patchlight.errors import PatchlightError
 from patchlight.imaging.color import LUMINANCE
 from patchlight.imaging.exposure import auto_exposure
-from patchlight.imaging.io import read_exr
+from patchlight.imaging.io import read_exr, write_exr
 from patchlight.patchview import PatchViews, patch_picture
 from patchlight.render import Camera, Renderer, load_target, target_settings
 from patchlight.render.output import display_pixels
@@ -48,6 +50,8 @@ STEPS = [
     {"click": "#frame-all", "shot": "framed"},
     {"click": "#camera-reset"},
     *({"probe": p} for p in PROBES),
+    {"shot": "single"},
+    {"select": "#split", "value": "bake", "shot": "split"},
 ]
 
 
@@ -60,13 +64,24 @@ def baked(tmp_path_factory):
     return out
 
 
+def brighter_copy(bake_dir: Path) -> Path:
+    """The bake beside itself with its lightmap twice as bright: a second bake of the same UVs."""
+    copy = bake_dir.with_name("room-bright")
+    if not copy.exists():
+        shutil.copytree(bake_dir, copy)
+        write_exr(copy / "lightmap.exr", 2 * read_exr(bake_dir / "lightmap.exr"))
+    return copy
+
+
 @pytest.fixture(scope="module")
 def run(browser, baked, tmp_path_factory):
-    """(log, out dir, target) of one page session through STEPS."""
+    """(log, out dir, target) of one page session through STEPS, with the brighter copy to
+    compare with."""
     out = tmp_path_factory.mktemp("inspect")
     (out / "script.json").write_text(json.dumps({"steps": STEPS}))
     target = load_target(str(baked))
-    with make_server(target, target_settings(target, model="lightmap")) as server:
+    compare = load_target(str(brighter_copy(baked)))
+    with make_server(target, target_settings(target, model="lightmap"), compare=compare) as server:
         log = browser.run("inspect", server.url, out, out / "script.json", timeout=600)
     return log, out, target
 
@@ -210,6 +225,41 @@ def test_the_patch_view_is_the_bake_gather_and_what_five_cameras_see(run):
         assert diff.mean() < 16 and np.percentile(diff, 90) < 64
         # ... and the light seen agrees within a few % (measured 0.2 % and 3 %)
         np.testing.assert_allclose(view.picture(view.radiance)[sees].mean(axis=0), cpu[sees].mean(axis=0), rtol=0.05)
+
+
+def linear(pixels: np.ndarray, exposure: float) -> np.ndarray:
+    """Radiance back from display bytes (sRGB, then the film curve 1 - exp(-k x))."""
+    c = pixels.astype(np.float64) / 255
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return -np.log(1 - np.minimum(c, 0.999)) / exposure
+
+
+def test_the_split_shows_the_second_bake_on_the_right_at_the_same_exposure(run):
+    """The copy's lightmap is twice as bright (and the room emits nothing): the right half
+    shows twice the radiance of the single view's right half, the left half is unchanged."""
+    log, out, _ = run
+    single, split = canvas(out, "single"), canvas(out, "split")
+    state = log["steps"][-1]["state"]
+    assert state["exposure"] == log["steps"][-2]["state"]["exposure"]
+    half = WIDTH // 2
+    assert np.array_equal(split[:, :half], single[:, :half])
+    a, b = (linear(picture[:, half:, :3], state["exposure"]) @ LUMINANCE for picture in (single, split))
+    usable = (single[:, half:, 3] > 0) & (a > 0.05 / state["exposure"]) & (b < 1.5 / state["exposure"])
+    assert usable.mean() > 0.2
+    ratio = np.median(b[usable] / a[usable])
+    print(f"split: right half {ratio:.3f} x the single view's")
+    assert ratio == pytest.approx(2, rel=0.03)
+
+
+def test_compare_needs_a_bake_of_the_same_lightmap_uvs(baked, tmp_path, capsys):
+    other = tmp_path / "other"
+    settings = BakeSettings(resolution=96, gather="hemicube", hemicube_size=4, passes=2)
+    write_bake(bake(load_scene("room"), settings), other, settings)
+    target = load_target(str(baked))
+    with pytest.raises(PatchlightError, match="not a bake with the same lightmap UVs"):
+        make_server(target, target_settings(target, model="lightmap"), exposure=1.0, compare=load_target(str(other)))
+    assert main(["view", str(baked), "--compare", "room"]) == 2
+    assert "--compare room: not a bake with the same lightmap UVs" in capsys.readouterr().err
 
 
 def test_the_patch_route_and_view_patch_refuse_what_is_not_there(baked, capsys):

@@ -33,6 +33,9 @@ def register(sub) -> None:
     p.add_argument("--exposure", default="auto", metavar="K", help="initial exposure K, or auto")
     p.add_argument("--envmap-from", metavar="X,Y,Z",
                    help="render the envmap's cube map from this point (default: as for render)")
+    p.add_argument("--compare", metavar="BAKE_DIR",
+                   help="a second bake of the same scene and lightmap UVs: the page can split the picture, "
+                        "this bake's lightmap on the left, that one's on the right")
     p.add_argument("--patch", metavar="X,Y",
                    help="a bake: show the view from lightmap texel X,Y (column, row) at start; "
                         "clicking a surface shows its texel's")
@@ -42,13 +45,15 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..patchview import parse_texel
+    from ..render.target import load_target
     from ..viewer.app import make_server
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     patch = parse_texel(args.patch) if args.patch else None
     target, settings = load_target_and_settings(args, args.model)
-    server = make_server(target, settings, args.port, exposure, envmap_from, patch)
+    compare = load_target(args.compare) if args.compare else None
+    server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()

@@ -21,11 +21,12 @@ EXPOSURE_PREVIEW = 96  # pixels on a side of the CPU render that sets the automa
 
 
 def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposure: float | None = None,
-                envmap_from=None, patch: tuple[int, int] | None = None) -> ViewerServer:
+                envmap_from=None, patch: tuple[int, int] | None = None, compare: Target | None = None) -> ViewerServer:
     """A ViewerServer for `target`: default camera, the environment cube (from the sky, or
     rendered from `envmap_from` or a point the renderer chooses), the sky behind the scene,
     and the exposure (automatic: from a small CPU render). A bake with texels.npz answers the
-    view from any patch (`patch`: the texel shown first, checked here).
+    view from any patch (`patch`: the texel shown first, checked here). `compare`: a second
+    bake of the same lightmap UVs, for the page's A/B split of two bakes.
 
     The page may switch to the envmap or hemisphere-radiosity model at any time, so the cube
     is always made; when no point for it could be found (and none was asked for) and the first
@@ -36,6 +37,8 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
         if patch_view is None:
             raise PatchlightError(f"--patch: {target.name} is not a bake with texels.npz (bake it to view from a patch)")
         patch_view.views().at(*patch)  # one line now when no patch is there
+    if compare is not None:
+        require_same_uvs(target, compare)
     renderer = Renderer(target, envmap_from)
     renderer.require_inputs(settings)
     camera = renderer.default_camera()
@@ -50,8 +53,20 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
     if exposure is None:
         preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
-    manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note, patch)
+    manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note, patch,
+                                  compare)
     return ViewerServer(manifest_bytes(manifest), data, port, patch_view)
+
+
+def require_same_uvs(target: Target, compare: Target) -> None:
+    """PatchlightError unless `compare` is a bake whose lightmap lies on target's surfaces the
+    same way (the same triangles' lightmap UVs), so its lightmap can stand in for target's."""
+    a, b = target.scene, compare.scene
+    same = (compare.lightmap is not None and a.uv1 is not None and b.uv1 is not None
+            and a.indices.shape == b.indices.shape and np.allclose(a.uv1[a.indices], b.uv1[b.indices], atol=1e-6))
+    if not same:
+        raise PatchlightError(f"--compare {compare.name}: not a bake with the same lightmap UVs as {target.name} "
+                              "(bake both from one scene at one resolution, or from a scene with its own TEXCOORD_1)")
 
 
 class PatchEndpoint:

@@ -15,6 +15,7 @@ int32); the manifest names them:
                 patchlight.imaging.exposure),
     texels (a bake's texels.npz: passes, status, chart, rho, emission, excident, the status
                 names and colours; null without one), patch (the texel to view from first, or null),
+    compare (a second bake's name and lightmap, for the A/B split, or null),
     env (the environment cube), env_note (why env is a black stand-in, or null),
     sky (the cube drawn behind the scene: "env" when the environment is the sky, its own
                 cube when the environment was rendered from a point, null without a sky),
@@ -66,11 +67,12 @@ class _Packer:
 
 def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env: np.ndarray,
                  exposure: float, sky: np.ndarray | None = None, env_note: str | None = None,
-                 patch: tuple[int, int] | None = None) -> tuple[dict, bytes]:
+                 patch: tuple[int, int] | None = None, compare: Target | None = None) -> tuple[dict, bytes]:
     """(manifest, data) for the page: see the module docstring. env: the environment cube
     (6, S, S, 4); sky: the cube of the sky drawn behind the scene (`env` itself when the
     environment is the sky), or None for no sky; env_note: why env is a stand-in, or None;
-    patch: the texel (x, y) whose view the page shows first, or None."""
+    patch: the texel (x, y) whose view the page shows first, or None; compare: a second bake
+    of the same lightmap UVs, whose lightmap the page can show beside this one's."""
     s = target.surface
     pack = _Packer()
     for name in ("positions", "normals", "tangents", "uv0", "uv1", "colors"):
@@ -114,6 +116,8 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "exposure_rule": {"percentile": AUTO_PERCENTILE, "target": AUTO_TARGET, "luminance": LUMINANCE},
         "texels": texels_bundle(pack, target.texels),
         "patch": None if patch is None else list(patch),
+        "compare": None if compare is None else {"name": compare.name,
+                                                 "lightmap": pack.add_texture("compare_lightmap", compare.lightmap)},
         "max_lights": MAX_LIGHTS,
         "ground_map": radiosity_bundle(pack, settings),
         "volume": volume_bundle(pack, settings),

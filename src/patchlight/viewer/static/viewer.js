@@ -41,6 +41,8 @@ class Viewer {
     this.renderer.setClearColor(0x000000, 0);
     this.uniforms = this.sharedUniforms();
     this.lightmapTexture = this.uniforms.lightmap.value;
+    const compare = this.manifest.compare;  // a second bake's lightmap, for the A/B split
+    this.compareTexture = compare && bundle.texture(compare.lightmap, THREE.ClampToEdgeWrapping);
     this.inspector = new Inspector(this);
     this.state.pass = this.inspector.passes;  // the final solution
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
@@ -276,10 +278,11 @@ class Viewer {
       aspect: this.camera.aspect };
   }
 
-  // Compare `model` (or '' for none) on the right half with the current model on the left.
+  // Compare `model` (or '' for none; 'bake': the second bake's lightmap) on the right half
+  // with the current model on the left.
   setSplit(model) {
     const st = this.state;
-    if (model && !(model in st.exposures) && this.exposureKey(model) === model) {
+    if (model && model !== 'bake' && !(model in st.exposures) && this.exposureKey(model) === model) {
       const shown = st.model;
       st.exposures[this.exposureKey()] = st.exposure;
       st.model = model;
@@ -313,17 +316,20 @@ class Viewer {
     return ms;
   }
 
-  // The current model on the left half, state.split on the right, each at its exposure.
+  // The current model on the left half, state.split on the right, each at its exposure (the
+  // second bake: the same model and exposure with its lightmap).
   drawSplit() {
     const st = this.state;
     const { width, height } = this.renderer.getContext().canvas;
     const half = Math.floor(width / 2);
     const shown = { model: st.model, exposure: st.exposure };
+    const bake = st.split === 'bake';
     this.renderer.setScissorTest(true);
-    for (const [model, x, w] of [[shown.model, 0, half], [st.split, half, width - half]]) {
+    for (const [model, x, w] of [[shown.model, 0, half], [bake ? shown.model : st.split, half, width - half]]) {
       st.model = model;
       st.exposure = model === shown.model ? shown.exposure : st.exposures[this.exposureKey(model)] ?? shown.exposure;
       this.apply();
+      if (bake && x > 0) this.uniforms.lightmap.value = this.compareTexture;
       this.renderer.setScissor(x, 0, w, height);
       this.renderer.render(this.scene, this.camera);
     }
@@ -360,6 +366,7 @@ function hexToLinear(hex) {
 function bindControls(viewer, redraw) {
   const st = viewer.state;
   $('title').textContent = viewer.manifest.name;
+  if (viewer.manifest.compare) $('split').add(new Option(`bake ${viewer.manifest.compare.name}`, 'bake'));
   for (const m of viewer.models) {
     $('model').add(new Option(m, m));
     $('split').add(new Option(m, m));
