@@ -9,7 +9,7 @@ from render_scenes import scene_from_parts, uv_sphere
 from patchlight.atlas.seams import seam_edges
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
-from patchlight.imaging.stitch import seam_differences, stitch
+from patchlight.imaging.stitch import bilinear_weights, seam_differences, seam_points, stitch
 from patchlight.scene.model import Light, Material
 from patchlight.scene.sky import Sky
 
@@ -63,8 +63,8 @@ def test_a_baked_sphere_agrees_across_its_seams_within_one_percent():
                 direction=np.array([-0.3, -0.8, -0.5], np.float32) / np.linalg.norm([-0.3, -0.8, -0.5]))
     scene = scene_from_parts([uv_sphere(16, 32)], [Material(base_color=np.array([0.7, 0.7, 0.7, 1], np.float32))],
                              [0], [sun], Sky.gradient([0.2, 0.3, 0.6], [0.4, 0.4, 0.45], [0.1, 0.08, 0.06]))
-    plain = bake(scene, BakeSettings(resolution=48, rays=64, stitch=False))
-    stitched = bake(scene, BakeSettings(resolution=48, rays=64))
+    plain = bake(scene, BakeSettings(resolution=48, rays=64, stitch=False, directional="sh"))
+    stitched = bake(scene, BakeSettings(resolution=48, rays=64, directional="sh"))
     seams = stitched.stats["seams"]
     assert seams["edges"] > 20
     assert seams["before"]["median"] > 0.01 and seams["before"]["max"] > 0.05  # xatlas' seams do jump
@@ -74,3 +74,14 @@ def test_a_baked_sphere_agrees_across_its_seams_within_one_percent():
                               stitched.scene.uv1)
     assert seam_differences(plain.lightmap, uv_a, uv_b).max() == pytest.approx(seams["before"]["max"])
     assert 0 < changed.sum() < (plain.patches.index >= 0).sum()  # only seam texels move
+    # the directional maps are stitched too: L0 relative to itself (noisier than the lightmap,
+    # measured max 1.05 %), L1 (signed) relative to L0
+    before = seam_differences(plain.directional.maps[0], uv_a, uv_b)
+    after = seam_differences(stitched.directional.maps[0], uv_a, uv_b)
+    assert np.median(before) > 0.01 and np.median(after) < 0.001 and after.max() < 0.02
+    pa, pb = seam_points(uv_a, uv_b, 48, 48)
+    scale = (bilinear_weights(pa, 48, 48) @ stitched.directional.maps[0].reshape(48 * 48, 3)).mean()  # L0 there
+    for layer in (1, 2, 3):
+        flat = stitched.directional.maps[layer].reshape(48 * 48, 3)
+        jump = (bilinear_weights(pa, 48, 48) - bilinear_weights(pb, 48, 48)) @ flat
+        assert np.abs(jump).max() < 0.01 * scale
