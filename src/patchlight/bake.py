@@ -213,7 +213,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("lightmap UVs"):
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
-                padding=settings.padding)
+                padding=settings.padding, densities=settings.density)
         check_bake_memory(width, height, settings.texel_samples, available)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)

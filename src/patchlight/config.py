@@ -25,11 +25,12 @@
 | stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
 | directional       | str           | None           | also bake "sh" (L1, lightmap_sh.exr) or "dominant" (_dir.exr)   |
 | ray               | str           | None           | Ray head HOST:PORT for the gather ("auto", or "local": start one) |
+| density           | {name: T}     | {}             | texels / m of the objects so named (over their extras)          |
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 from .errors import PatchlightError
 
@@ -65,6 +66,7 @@ class BakeSettings:
     stitch: bool = True
     directional: str | None = None
     ray: str | None = None
+    density: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -97,6 +99,9 @@ class BakeSettings:
             (number(self.max_memory) and 0 <= self.max_memory <= 1 << 50, "max memory must be a number of bytes in 0..2^50"),
             (isinstance(self.seed, int) and self.seed >= 0, "seed must be a whole number >= 0"),
             (self.directional in (None, *DIRECTIONAL_MODES), "directional must be sh or dominant"),
+            *((number(t) and TEXELS_PER_UNIT[0] <= t <= TEXELS_PER_UNIT[1],
+               f"density {name}: {t} texels per metre is not a number in "
+               f"{TEXELS_PER_UNIT[0]:g}..{TEXELS_PER_UNIT[1]:g}") for name, t in self.density.items()),
         ]
         for ok, message in checks:
             if not ok:

@@ -7,6 +7,11 @@ ensure_lightmap_uvs parameters:
 | texels_per_unit | float > 0    | lightmap texels per metre of surface                          | 16      |
 | resolution      | int 16..8192 | square lightmap size; overrides texels_per_unit               | None    |
 | padding         | int >= 0     | empty texels between charts (and around the atlas edge)       | 2       |
+| densities       | {name: T}    | texels per metre of the objects so named (over their extras)  | None    |
+
+Per-object density: each object's positions go to the packer scaled about their centre by
+its density over the base one, so its charts come out that much larger; `info["objects"]`
+gives each object's density as measured from the UVs made.
 
 xatlas runs in a child process (it can crash on some closed meshes); when it dies, times out
 or is missing, a simple in-process packer takes over and `info["warnings"]` says so once.
@@ -65,36 +70,89 @@ class _XatlasFailed(Exception):
 
 
 def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, resolution: int | None = None,
-                        padding: int = 2) -> tuple[Scene, int, int, dict]:
+                        padding: int = 2, densities: dict[str, float] | None = None) -> tuple[Scene, int, int, dict]:
     """Give the scene lightmap UVs and choose the lightmap size.
 
     Returns (scene, width, height, info).  A scene with uv1 comes back unchanged; otherwise
     a new Scene whose vertices are split along chart seams (every per-vertex array remapped)
     with uv1 set.  info: uv_source ("TEXCOORD_1" | "xatlas" | "fallback"), charts, width,
     height, texels_per_unit (the density the charts were packed at; for TEXCOORD_1 the mean
-    over the surface), warnings (list of str, at most one line about the packer).
+    over the surface), objects (each object's name and texels per metre), warnings (list of
+    str, at most one line about the packer and one about densities a kept TEXCOORD_1 ignores).
     """
     _check_options(texels_per_unit, resolution, padding)
-    if scene.uv1 is not None:
-        return _keep_texcoord1(scene, texels_per_unit, resolution)
     density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
+    names, triangle, scale = _object_scales(scene, density, densities or {})
+    if scene.uv1 is not None:
+        return _keep_texcoord1(scene, texels_per_unit, resolution, names, triangle, scale)
     if resolution is None:
-        _check_density(scene, density)
+        _check_density(scene, density * scale[triangle])
     warnings = []
+    packed = _scaled_objects(scene, triangle, scale)
     try:
-        packing = _xatlas_in_child(scene, density, resolution, padding)
+        packing = _xatlas_in_child(packed, density, resolution, padding)
         source = "xatlas"
     except _XatlasFailed as failure:
         warnings.append(f"{failure}; used the simple planar-chart packer")
-        packing = pack_planar_charts(scene, density, resolution, padding)
+        packing = pack_planar_charts(packed, density, resolution, padding)
         source = "fallback"
     width, height = _final_size(packing, resolution)
     _check_size(width, height, scene)
     uv1 = (packing.uv_texels / np.array([width, height], np.float64)).astype(np.float32)
     out = _split_vertices(scene, packing.vmapping, packing.indices, uv1)
     info = {"uv_source": source, "charts": packing.charts, "width": width, "height": height,
-            "texels_per_unit": packing.texels_per_unit, "warnings": warnings}
+            "texels_per_unit": packing.texels_per_unit, "warnings": warnings,
+            "objects": _object_report(out, width, height, names, triangle)}
     return out, width, height, info
+
+
+def _object_scales(scene: Scene, density: float, asked: dict[str, float]) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(names (K,), object of each triangle (T,) i32, density of each object over `density`
+    (K,) f64): `asked` by name first, then the file's extras, else 1. A scene without
+    objects is one object named after the scene."""
+    objects = scene.objects
+    if objects is None:
+        names, triangle, from_file = [scene.name], np.zeros(scene.n_triangles, np.int32), np.full(1, math.nan)
+    else:
+        names, triangle, from_file = objects.names, objects.triangle, objects.texels_per_unit
+    unknown = sorted(set(asked) - set(names))
+    if unknown:
+        raise PatchlightError(f"{scene.label}: --density names {', '.join(map(repr, unknown))}, which no object "
+                              f"is called (objects: {', '.join(map(repr, sorted(set(names))[:8]))}"
+                              f"{' ...' if len(set(names)) > 8 else ''})")
+    for name, value in asked.items():
+        _check_options(value, None, 0)
+    wanted = np.array([asked.get(name, f) for name, f in zip(names, from_file)], np.float64)
+    return names, triangle, np.where(np.isnan(wanted), density, wanted) / density
+
+
+def _scaled_objects(scene: Scene, triangle: np.ndarray, scale: np.ndarray) -> Scene:
+    """The scene with each object's vertices scaled by its factor about the object's centre
+    (for the packer only). A vertex shared by objects takes the largest factor."""
+    if np.all(scale == 1.0):
+        return scene
+    vertex_scale = np.zeros(len(scene.positions), np.float64)
+    vertex_object = np.zeros(len(scene.positions), np.int64)
+    order = np.argsort(scale[triangle], kind="stable")  # the largest factor written last
+    corners = scene.indices[order]
+    vertex_scale[corners] = scale[triangle[order]][:, None]
+    vertex_object[corners] = triangle[order][:, None]
+    positions = np.asarray(scene.positions, np.float64)
+    count = np.bincount(vertex_object, minlength=len(scale)).astype(np.float64)
+    centre = np.stack([np.bincount(vertex_object, positions[:, a], len(scale)) for a in range(3)], axis=1)
+    centre /= np.maximum(count, 1.0)[:, None]
+    origin = centre[vertex_object]
+    scaled = origin + (positions - origin) * vertex_scale[:, None]
+    return dataclasses.replace(scene, positions=scaled.astype(np.float32), provenance=None, objects=None)
+
+
+def _object_report(scene: Scene, width: int, height: int, names: list[str], triangle: np.ndarray) -> list[dict]:
+    """bake.json's list of objects: name and lightmap texels per metre, measured from the
+    lightmap UVs (the square root of its texels over its area)."""
+    area = np.bincount(triangle, face_normals(scene.positions, scene.indices)[1], len(names))
+    texels = np.bincount(triangle, _uv_areas(scene.uv1, scene.indices), len(names)) * (width * height)
+    density = np.sqrt(texels / np.maximum(area, 1e-30))
+    return [{"name": name, "texels_per_unit": float(t)} for name, t in zip(names, density)]
 
 
 def uv_charts(uv1: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, int]:
@@ -131,7 +189,7 @@ def _edge_codes(keys):
 # TEXCOORD_1 kept
 # ----------------------------------------------------------------------------------------
 
-def _keep_texcoord1(scene, texels_per_unit, resolution):
+def _keep_texcoord1(scene, texels_per_unit, resolution, names, triangle, scale):
     uv1 = scene.uv1
     where = scene.label
     if uv1.ndim != 2 or uv1.shape != (len(scene.positions), 2):
@@ -152,8 +210,12 @@ def _keep_texcoord1(scene, texels_per_unit, resolution):
             raise PatchlightError(f"{where}: its TEXCOORD_1 at {density:g} texels per metre needs a {size}x{size} "
                                   f"lightmap (limit {MAX_SIZE}); lower --texels-per-unit or set --resolution")
     _, charts = uv_charts(uv1, scene.indices)
+    warnings = _outside_unit_square(uv1, scene)
+    if np.any(scale != 1.0):
+        warnings.append(f"{scene.label}: its own TEXCOORD_1 is kept, so the per-object densities asked are not applied")
     info = {"uv_source": "TEXCOORD_1", "charts": charts, "width": size, "height": size,
-            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": _outside_unit_square(uv1, scene)}
+            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": warnings,
+            "objects": _object_report(scene, size, size, names, triangle)}
     return scene, size, size, info
 
 
@@ -378,11 +440,15 @@ def _check_size(width, height, scene):
 
 
 def _check_density(scene, texels_per_unit):
-    """Refuse before packing when the surface alone needs more than MAX_TEXELS texels."""
-    world_area = float(face_normals(scene.positions, scene.indices)[1].astype(np.float64).sum())
-    needed = world_area * texels_per_unit ** 2
+    """Refuse before packing when the surface alone needs more than MAX_TEXELS texels at the
+    density of each triangle (T,) texels per metre."""
+    area = face_normals(scene.positions, scene.indices)[1].astype(np.float64)
+    world_area = float(area.sum())
+    needed = float((area * texels_per_unit ** 2).sum())
     if needed > MAX_TEXELS:
-        raise PatchlightError(f"{scene.label}: {world_area:.4g} m^2 at {texels_per_unit:g} texels per "
+        at = (f"{float(texels_per_unit.min()):g}" if np.ptp(texels_per_unit) == 0
+              else f"{float(texels_per_unit.min()):g}-{float(texels_per_unit.max()):g}")
+        raise PatchlightError(f"{scene.label}: {world_area:.4g} m^2 at {at} texels per "
                               f"metre needs {needed:.3g} texels (limit {MAX_TEXELS}); lower --texels-per-unit "
                               f"or set --resolution")
 

@@ -70,12 +70,26 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-stitch", dest="stitch", action="store_false",
                    help="leave UV chart seams as solved (default: texels across a seam made to agree)")
     p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster: its head's HOST:PORT, auto, or local")
+    p.add_argument("--density", action="append", default=[], metavar="NAME=T",
+                   help="texels per metre for the objects (glTF nodes or meshes) named NAME; repeatable")
     p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
     p.add_argument("--max-memory", type=finite_number, default=DEFAULTS.max_memory / 2**30, metavar="GiB",
                    help=f"most memory the form factors may keep, 0..{MAX_MEMORY_GIB} (default %(default)s)")
     p.add_argument("--seed", type=int, default=DEFAULTS.seed)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the bake summary as JSON on stdout")
+
+
+def _density(flag: str) -> tuple[str, float]:
+    """("NAME", T) from a --density NAME=T flag."""
+    name, sep, value = flag.rpartition("=")
+    try:
+        texels_per_unit = float(value)
+    except ValueError:
+        texels_per_unit = None
+    if not (sep and name) or texels_per_unit is None:
+        raise PatchlightError(f"--density {flag}: expected NAME=T, T texels per metre")
+    return name, texels_per_unit
 
 
 def settings_from_args(args) -> BakeSettings:
@@ -94,7 +108,8 @@ def settings_from_args(args) -> BakeSettings:
                             accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
                             save_passes=args.save_passes, denoise=args.denoise, ray=args.ray,
-                            stitch=args.stitch, directional=args.directional)
+                            stitch=args.stitch, directional=args.directional,
+                            density=dict(map(_density, args.density)))
     settings.validate()
     return settings
 

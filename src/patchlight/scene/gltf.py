@@ -95,7 +95,7 @@ import pygltflib as gl
 from ..errors import PatchlightError
 from ..imaging.color import linear_to_srgb, srgb_to_linear
 from ..imaging.io import atomic_path, check_finite, decode_image, encode_png, json_text, read_bytes, read_environment
-from .model import Light, Material, Provenance, Scene, vertex_normals
+from .model import Light, Material, Objects, Provenance, Scene, vertex_normals
 from .sky import Sky
 
 # Photometric -> radiometric: 683 lm/W at 555 nm (KHR_lights_punctual intensities are lux / candela).
@@ -120,6 +120,16 @@ _DEGENERATE_SINE = 1e-7  # |e1 x e2| below this times the longest edge squared: 
 
 
 # =========================================================================== import
+
+def _asked_density(extras, where: str, fail) -> float | None:
+    """extras.patchlight.texelsPerUnit of a node or mesh: a positive number, or None."""
+    value = ((extras or {}).get("patchlight") or {}).get("texelsPerUnit") if isinstance(extras, dict) else None
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
+        raise fail(f"{where}: extras.patchlight.texelsPerUnit must be a positive number, not {value!r}")
+    return float(value)
+
 
 def load_gltf(path) -> Scene:
     """Read a .gltf or .glb file into one world-space `Scene` (see the module docstring)."""
@@ -607,7 +617,21 @@ class _Importer:
             vertex_node=np.repeat(np.array([b.node for b in blocks], np.int32), count),
             vertex_primitive=np.repeat(np.array([b.primitive for b in blocks], np.int32), count),
             vertex_source=np.concatenate([np.arange(n, dtype=np.int32) for n in count]))
+        scene.objects = self._objects(scene.provenance.triangle_node)
         return scene
+
+    def _objects(self, triangle_node: np.ndarray) -> Objects:
+        """One object per mesh instance (node), with the density its extras ask for."""
+        nodes, triangle = np.unique(triangle_node, return_inverse=True)
+        names, density = [], []
+        for index in nodes:
+            node = self.doc.nodes[index]
+            mesh = self.doc.meshes[node.mesh]
+            names.append(node.name or mesh.name or f"node {index}")
+            asked = [_asked_density(holder.extras, f"node {index}" if holder is node else f"mesh {node.mesh}",
+                                    self.fail) for holder in (node, mesh)]
+            density.append(next((d for d in asked if d is not None), math.nan))
+        return Objects(names, triangle.astype(np.int32), np.array(density, np.float64))
 
     def _all_or_none(self, blocks: list[_Block], name: str, attribute: str) -> np.ndarray | None:
         arrays = [getattr(b, name) for b in blocks]

@@ -127,6 +127,21 @@ class Provenance:
 
 
 @dataclass
+class Objects:
+    """The scene's objects (a glTF file's mesh instances), for per-object lightmap density.
+
+    names: K names (the node's, else its mesh's, else "node N"; several objects may share
+    one); triangle (T,) i32: the object of each triangle; texels_per_unit (K,) f64: the
+    density the file asks for (`extras.patchlight.texelsPerUnit` of the node, else of its
+    mesh), NaN where it asks none.
+    """
+
+    names: list[str]
+    triangle: np.ndarray
+    texels_per_unit: np.ndarray
+
+
+@dataclass
 class Scene:
     """One triangle soup in world space.
 
@@ -135,6 +150,7 @@ class Scene:
     indices (T, 3) i32; material_ids (T,) i32 into `materials`.  provenance: where a glTF
     scene's triangles and vertices came from (None for built-in scenes); a stage that re-indexes
     vertices carries it (`Provenance.split`), one that drops or reorders triangles sets it to None.
+    objects: the objects each triangle belongs to (None: the scene is one object).
     """
 
     positions: np.ndarray
@@ -152,6 +168,7 @@ class Scene:
     source: str = ""
     extras: dict = field(default_factory=dict)
     provenance: Provenance | None = None
+    objects: Objects | None = None
 
     @property
     def label(self) -> str:
