@@ -73,3 +73,33 @@ def test_ctrl_c_in_the_volume_kernels_is_one_line_and_130(tmp_path, room_bake, d
         return
     assert status == 130 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     assert not out.exists()
+
+
+def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
+    """A Ctrl-C landing in a __del__ (Python can only drop it there: "Exception ignored in")
+    is delivered again a moment later, so the command still stops, with one line."""
+    import argparse
+
+    import patchlight.cli.parser as parser_module
+
+    class Dropper:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000):  # the handler runs here, inside __del__
+                pass
+
+    def work(args):
+        Dropper()
+        time.sleep(5)  # interrupted by the second delivery
+        return 0
+
+    def build_parser():
+        parser = argparse.ArgumentParser()
+        parser.set_defaults(func=work)
+        return parser
+
+    monkeypatch.setattr(parser_module, "build_parser", build_parser)
+    started = time.monotonic()
+    assert main([]) == 130
+    assert time.monotonic() - started < 4
+    assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"

@@ -13,22 +13,23 @@ import warnings
 
 
 def main(argv: list[str] | None = None) -> int:
-    received = []
-    previous = _handle_stop_signals(received)
-    try:
-        return _run(argv)
-    except BaseException as exc:
-        # a signal's KeyboardInterrupt raised inside a numba dispatcher surfaces as a
-        # SystemError ("returned a result with an exception set"), so any exception counts
-        number = received[0] if received else signal.SIGINT if isinstance(exc, KeyboardInterrupt) else None
-        if number is None:
-            raise
-        word = "interrupted" if number == signal.SIGINT else "terminated"
-        print(f"patchlight: {word}; nothing partial was written", file=sys.stderr)
-        return 128 + number
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+    with _StopSignals() as signals:
+        try:
+            status = _run(argv)
+        except BaseException as exc:
+            # a signal's KeyboardInterrupt raised inside a numba dispatcher surfaces as a
+            # SystemError ("returned a result with an exception set"), so any exception counts
+            number = signals.received or (signal.SIGINT if isinstance(exc, KeyboardInterrupt) else None)
+            if number is None:
+                raise
+            return _stopped(number)
+        return status if signals.received is None else _stopped(signals.received)
+
+
+def _stopped(number: int) -> int:
+    word = "interrupted" if number == signal.SIGINT else "terminated"
+    print(f"patchlight: {word}; nothing partial was written", file=sys.stderr)
+    return 128 + number
 
 
 def _run(argv: list[str] | None) -> int:
@@ -49,37 +50,50 @@ def _run(argv: list[str] | None) -> int:
         return 2
 
 
-def _handle_stop_signals(received: list) -> dict:
-    """SIGINT and SIGTERM raise KeyboardInterrupt once and record their number; a second one
-    while the first is being cleaned up is ignored. A signal landing in code that would
-    swallow the exception comes again 5 ms later (SIGALRM). Returns the handlers it replaced."""
-    pending = []
+class _StopSignals:
+    """SIGINT and SIGTERM raise KeyboardInterrupt once, wherever the program is, and record
+    their number (`received`); another one while the first is being cleaned up is ignored.
+    An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
+    llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
+    (SIGALRM). Only in the main thread (main() called from a test's thread: no handlers)."""
 
-    def stop(number, frame):
-        if received:
-            return
-        if _swallows(frame):
-            pending[:] = [number]
+    def __init__(self):
+        self.received: int | None = None
+        self.pending = signal.SIGINT
+        self.previous: dict = {}
+        self.previous_hook = sys.unraisablehook
+
+    def __enter__(self) -> "_StopSignals":
+        try:
+            for number, handler in ((signal.SIGINT, self.stop), (signal.SIGTERM, self.stop),
+                                    (signal.SIGALRM, self.again)):
+                self.previous[number] = signal.signal(number, handler)
+        except ValueError:
+            return self
+        sys.unraisablehook = self.dropped
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.previous:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            sys.unraisablehook = self.previous_hook
+        for number, handler in self.previous.items():
+            signal.signal(number, handler)
+
+    def stop(self, number, frame) -> None:
+        if self.received is None:
+            self.received = number
+            raise KeyboardInterrupt
+
+    def again(self, number, frame) -> None:
+        self.stop(self.pending, frame)
+
+    def dropped(self, unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.received is not None:
+            self.pending, self.received = self.received, None
             signal.setitimer(signal.ITIMER_REAL, 0.005)
-            return
-        received.append(number)
-        raise KeyboardInterrupt
-
-    def again(_, frame):
-        stop(pending[0], frame)
-
-    handlers = {signal.SIGINT: stop, signal.SIGTERM: stop, signal.SIGALRM: again}
-    try:
-        return {number: signal.signal(number, handler) for number, handler in handlers.items()}
-    except ValueError:  # not the main thread (main() called from a test's thread): no handlers
-        return {}
-
-
-def _swallows(frame) -> bool:
-    """Whether an exception raised in `frame` could be dropped: code that C calls back
-    (llvmlite's object-cache callbacks while numba loads a kernel, import-lock callbacks)."""
-    name = frame.f_code.co_filename if frame is not None else ""
-    return "llvmlite" in name or name.startswith("<frozen importlib")
+        else:
+            self.previous_hook(unraisable)
 
 
 if __name__ == "__main__":
