@@ -103,3 +103,17 @@ def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
     assert main([]) == 130
     assert time.monotonic() - started < 4
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
+
+
+def test_a_signal_while_the_interpreter_winds_down_ends_it_at_once():
+    """After the work (the output complete), a Ctrl-C during the interpreter's teardown,
+    which can take seconds, ends the process at once with 130 and no traceback."""
+    script = ("import os, signal, sys, time\n"
+              "from patchlight.cli.main import main\n"
+              "sys.argv = ['patchlight', '--help']\n"
+              "status = main()\n"
+              "os.kill(os.getpid(), signal.SIGINT)\n"
+              "time.sleep(5)\n"
+              "print('still running')\n")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 130 and "still running" not in run.stdout and "Traceback" not in run.stderr

@@ -7,13 +7,16 @@ subcommand cleans up, and the exit status is 128 + the signal (130, 143), after 
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import warnings
 
 
 def main(argv: list[str] | None = None) -> int:
-    with _StopSignals() as signals:
+    """Run `patchlight` with argv (None: the process's own command line, and then a signal
+    after the work, while the interpreter winds down, ends the process at once)."""
+    with _StopSignals(winding_down=argv is None) as signals:
         try:
             status = _run(argv)
         except BaseException as exc:
@@ -55,9 +58,12 @@ class _StopSignals:
     their number (`received`); another one while the first is being cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
-    (SIGALRM). Only in the main thread (main() called from a test's thread: no handlers)."""
+    (SIGALRM). Only in the main thread (main() called from a test's thread: no handlers).
+    Afterwards the handlers before it come back, or, winding down (the process ends after
+    main), `_exit_now`: the work is done, and the interpreter's teardown can take seconds."""
 
-    def __init__(self):
+    def __init__(self, winding_down: bool = False):
+        self.winding_down = winding_down
         self.received: int | None = None
         self.pending = signal.SIGINT
         self.previous: dict = {}
@@ -78,7 +84,8 @@ class _StopSignals:
             signal.setitimer(signal.ITIMER_REAL, 0)
             sys.unraisablehook = self.previous_hook
         for number, handler in self.previous.items():
-            signal.signal(number, handler)
+            stop_now = self.winding_down and number != signal.SIGALRM
+            signal.signal(number, _exit_now if stop_now else handler)
 
     def stop(self, number, frame) -> None:
         if self.received is None:
@@ -94,6 +101,14 @@ class _StopSignals:
             signal.setitimer(signal.ITIMER_REAL, 0.005)
         else:
             self.previous_hook(unraisable)
+
+
+def _exit_now(number, frame) -> None:
+    """A signal while the interpreter winds down: the output is complete; end at once."""
+    try:
+        sys.stdout.flush()
+    finally:
+        os._exit(128 + number)
 
 
 if __name__ == "__main__":
