@@ -26,8 +26,8 @@ import numpy as np
 from .atlas.raster import texel_surface_points
 from .errors import PatchlightError
 from .imaging.dilate import dilate
-from .radiosity import _kernels as _ray_kernels
 from .radiosity.hemicube import stratified_directions
+from .rays.hemisphere import hemisphere_rays, row_angles
 from .rays.tracer import Tracer
 from .scene.model import Scene, face_normals
 from .shading.surface import SurfaceArrays, interpolate
@@ -162,11 +162,10 @@ def _occlusion(tracer, high, points, tri, incoming, shading_normal, settings, re
     normal = np.where(np.einsum("ij,ij->i", shading_normal, face)[:, None] > 0, shading_normal, face)
     dirs, _ = stratified_directions(settings.ao_rays, np.random.default_rng(settings.seed))
     rows = np.arange(len(points), dtype=np.int64)
-    angles = 2 * np.pi * np.modf((rows + start) * 0.6180339887498949)[0]
     lift = np.float32(1e-4 * reach) + 1e-5 * np.abs(points).max(axis=1)
     origin = (points + lift[:, None] * face).astype(np.float32)
-    o, d = _ray_kernels.make_rays(origin, normal.astype(np.float32), np.zeros(len(points), np.float32), rows,
-                                  dirs, angles)
+    o, d = hemisphere_rays(origin, normal.astype(np.float32), np.zeros(len(points), np.float32), rows,
+                           dirs, row_angles(rows, start))
     blocked = tracer.occluded(o, d, np.float32(reach)).reshape(len(points), len(dirs))
     return 1.0 - blocked.mean(axis=1)
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from patchlight.cli.main import main
+from patchlight.cli.options import load_target_and_settings
 from patchlight.cli.parser import build_parser
-from patchlight.cli.render import load_target_and_settings
 from patchlight.errors import PatchlightError
 from patchlight.ground.files import load_ground_map
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap

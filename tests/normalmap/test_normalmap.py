@@ -8,7 +8,7 @@ import pytest
 
 from gltf_builder import Builder
 from patchlight.cli.main import main
-from patchlight.cli.render import use_normal_map
+from patchlight.cli.options import use_normal_map
 from patchlight.scene.model import Light
 from patchlight.imaging.io import read_image
 from patchlight.normalmap import NormalMapSettings, bake_normal_map

@@ -59,8 +59,8 @@ def test_lightmap_model_reads_a_bake_directory(bake_dir, tmp_path):
 @pytest.mark.parametrize("target, model", [("bake", "lightmap"), ("file", "lambert")])
 def test_view_shows_a_bakes_lightmap_first(bake_dir, scene_file, target, model):
     """The default model comes from the loaded target: lightmap when it has one."""
+    from patchlight.cli.options import load_target_and_settings
     from patchlight.cli.parser import build_parser
-    from patchlight.cli.render import load_target_and_settings
 
     args = build_parser().parse_args(["view", str(bake_dir if target == "bake" else scene_file)])
     assert load_target_and_settings(args, args.model)[1].model == model

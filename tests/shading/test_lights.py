@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
+from patchlight.cli.options import parse_light_spec
 from patchlight.errors import PatchlightError
 from patchlight.scene.model import Light
 from patchlight.shading.lights import (directional_light, from_scene_light, incident_light,
-                                       inverse_square_falloff, parse_light_spec, point_light, range_falloff,
-                                       spot_cone, spot_light)
+                                       inverse_square_falloff, point_light, range_falloff, spot_cone, spot_light)
 
 
 def test_range_falloff_reaches_zero_at_the_range_and_stays_there():

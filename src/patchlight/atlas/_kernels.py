@@ -1,4 +1,4 @@
-"""Numba kernels of the atlas stage: texel rasterisation, texel attributes, chart packing.
+"""Numba kernels of the atlas stage: texel rasterisation, texel attributes, chart layout.
 
 Every kernel takes and returns arrays only. Lightmap texel coordinates are (x, y) with
 x = u * W and y = v * H, so texel (row y, column x) is the square [x, x+1] x [y, y+1] and
@@ -530,21 +530,3 @@ def project_charts(corners, chart_normal, tri_order, chart_start, max_candidates
         extent[ch, 0], extent[ch, 1] = hi_u - lo_u, hi_v - lo_v
     return local, extent
 
-
-@njit(cache=True)
-def shelf_pack(cell_w, cell_h, order, padding, shelf_width):
-    """Place rectangles of cell_w x cell_h texels (C,) on shelves in the given order (tallest
-    first), `padding` empty texels between rectangles and around the border.
-    Returns x, y (C,) i64 top-left corners and the used width and height."""
-    x_at = np.zeros(cell_w.shape[0], np.int64)
-    y_at = np.zeros(cell_w.shape[0], np.int64)
-    x, y, shelf_h, used_w = padding, padding, 0, 0
-    for c in order:
-        if x > padding and x + cell_w[c] + padding > shelf_width:
-            y += shelf_h + padding
-            x, shelf_h = padding, 0
-        x_at[c], y_at[c] = x, y
-        x += cell_w[c] + padding
-        shelf_h = max(shelf_h, cell_h[c])
-        used_w = max(used_w, x)
-    return x_at, y_at, used_w, y + shelf_h + padding

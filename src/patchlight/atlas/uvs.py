@@ -39,6 +39,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..config import BakeSettings
 from ..errors import PatchlightError
+from ..imaging.packing import shelf_pack
 from ..scene.model import Scene, face_normals
 from . import _kernels
 
@@ -354,7 +355,7 @@ def _shelf_pack(extent, texels_per_unit, padding, shelf_width):
         shelf_width = max(int(cells_w.max()) + 2 * padding,
                           int(math.ceil(math.sqrt(float(((cells_w + padding) * (cells_h + padding)).sum())))))
     order = np.argsort(-cells_h, kind="stable")
-    x_at, y_at, width, height = _kernels.shelf_pack(cells_w, cells_h, order, padding, shelf_width)
+    x_at, y_at, width, height = shelf_pack(cells_w, cells_h, order, padding, shelf_width)
     return x_at, y_at, cells_w, cells_h, int(width), int(height)
 
 

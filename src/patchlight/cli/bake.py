@@ -5,36 +5,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..config import DIRECTIONAL_MODES, FALLOFFS, GATHERS, BakeSettings
+from ..config import DIRECTIONAL_MODES, GATHERS, BakeSettings
 from ..errors import PatchlightError
-from ..scene.model import MAX_LIGHT
+from .options import DEFAULTS, add_scene_options, load_lit_scene
 from .parser import finite_number, writes_output
 
-DEFAULTS = BakeSettings()
 MAX_MEMORY_GIB = 1 << 20
-
-
-def parse_rgb(text: str) -> tuple[float, float, float]:
-    """'R,G,B' -> three floats in 0..MAX_LIGHT, or a one-line error."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(0 <= v <= MAX_LIGHT for v in values):
-        raise argparse.ArgumentTypeError(f"expected R,G,B (three numbers in 0..{MAX_LIGHT:g}), got {text!r}")
-    return values
-
-
-def add_scene_options(p: argparse.ArgumentParser) -> None:
-    """Sky and light options shared by every command that lights a scene."""
-    sky = p.add_mutually_exclusive_group()
-    sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="uniform sky radiance")
-    sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
-                     help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
-    sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
-    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff,
-                   help="point/spot falloff for lights that name none (default %(default)s)")
-    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help="sun's angular diameter, soft shadows")
 
 
 def register(sub) -> None:
@@ -112,32 +88,6 @@ def settings_from_args(args) -> BakeSettings:
                             density=dict(map(_density, args.density)))
     settings.validate()
     return settings
-
-
-def sky_from_args(args):
-    """The Sky the --sky / --sky-gradient / --sky-image flags ask for, or None (keep the scene's)."""
-    from ..scene import Sky
-
-    if args.sky is not None:
-        return Sky.uniform(args.sky)
-    if args.sky_gradient is not None:
-        return Sky.gradient(*args.sky_gradient)
-    if args.sky_image is not None:
-        from ..imaging.io import read_environment
-
-        return Sky.from_image(read_environment(args.sky_image), source=args.sky_image)
-    return None
-
-
-def load_lit_scene(args):
-    """The scene named on the command line, with the sky the flags give."""
-    from ..scene import load_scene
-
-    scene = load_scene(args.scene)
-    sky = sky_from_args(args)
-    if sky is not None:
-        scene.sky = sky
-    return scene
 
 
 def run(args) -> int:

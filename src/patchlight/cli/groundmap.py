@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import PatchlightError
 from ..scene import is_builtin
-from .bake import add_scene_options, sky_from_args
+from .options import add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
 
 DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
@@ -103,7 +103,6 @@ def run(args) -> int:
     from ..ground.groundmap import make_groundmap, plan_groundmap, write_groundmap
     from ..imaging.io import check_output_dir
     from ..solved import SolvedScene, is_bake_dir, load_solved
-    from .bake import load_lit_scene
 
     settings = settings_from_args(args)
     check_output_dir(args.output)

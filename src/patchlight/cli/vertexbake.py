@@ -18,8 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PatchlightError
-from .bake import add_scene_options
-from .volume import load_solved_from_args
+from .options import add_scene_options, load_solved_from_args
 
 
 def register(sub) -> None:

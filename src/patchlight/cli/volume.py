@@ -12,7 +12,7 @@ from pathlib import Path
 from ..errors import PatchlightError
 from ..scene import is_builtin
 from ..volumes.probes import MAX_SEED, VolumeSettings
-from .bake import add_scene_options, sky_from_args
+from .options import add_scene_options, load_solved_from_args
 from .parser import finite_number, writes_output
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
@@ -48,16 +48,6 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print volume.json on stdout")
     p.set_defaults(func=writes_output(run))
-
-
-def load_solved_from_args(args, quiet: bool):
-    """The solved scene the arguments name, baked now (default settings, the flags' falloff
-    and sun angle) when it is not a bake directory."""
-    from ..config import BakeSettings
-    from ..solved import load_solved
-
-    settings = BakeSettings(falloff=args.falloff, sun_angle=args.sun_angle)
-    return load_solved(args.scene, settings, sky=sky_from_args(args), quiet=quiet)
 
 
 def choose_grid(args, scene):

@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from .packing import shelf_pack
+
 MARGIN = 8  # texels of a chart's own light around it: OIDN's filter reaches little further
 BLUR = 5    # box filter width over the filled margin
 MIN_WIDTH = 6  # texels: narrower charts are left alone
@@ -59,11 +61,9 @@ def _cut_out(image: np.ndarray, charts: np.ndarray) -> list[tuple]:
 
 
 def _pack(pieces: list[np.ndarray]) -> tuple[np.ndarray, list[tuple[int, int]]]:
-    """Shelf-pack pieces (h, w, 3), tallest first, side by side (the atlas packer's shelves),
+    """Shelf-pack pieces (h, w, 3), tallest first, side by side (as the atlas packs its charts),
     into one canvas about as wide as the widest piece or the square root of their total area;
     returns it and each piece's corner (y, x)."""
-    from ..atlas._kernels import shelf_pack
-
     h = np.array([p.shape[0] for p in pieces], np.int64)
     w = np.array([p.shape[1] for p in pieces], np.int64)
     width = max(int(w.max()), int(np.sqrt(float((h * w).sum()))))

@@ -14,6 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..atlas.patches import Patches
+from ..rays.hemisphere import hemisphere_rays, row_angles
 from ..rays.tracer import Tracer
 from . import _kernels
 from .hemicube import multiplier_map, stratified_directions
@@ -58,14 +59,6 @@ class Gatherer:
     @property
     def rays_per_patch(self) -> int:
         return len(self.dirs)
-
-    def _angles(self, rows: np.ndarray) -> np.ndarray:
-        """Rotation of the ray pattern about each patch's normal, a golden-ratio sequence of the
-        patch id (so a re-gather sees the same rays): neighbouring patches look through
-        differently turned patterns, and a hemicube's aliasing becomes fine noise instead of
-        bands a texel high along whole walls (measured up to 30 % at hemicube 32 in the room)."""
-        golden = 0.6180339887498949
-        return (2 * np.pi) * np.modf((rows.astype(np.float64) + self.seed) * golden)[0]
 
     def _chunks(self, rows: np.ndarray, rays_per_patch: int | None = None) -> list[np.ndarray]:
         per_chunk = max(1, RAYS_PER_CHUNK // (rays_per_patch or self.rays_per_patch))
@@ -113,8 +106,8 @@ class Gatherer:
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
         id or SKY / BACK_FACE / LOST per ray, and the rays' directions (R * D, 3)."""
         p = self.patches
-        origins, dirs = _kernels.make_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
-                                           local_dirs, self._angles(rows))
+        origins, dirs = hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
+                                        local_dirs, row_angles(rows, self.seed))
         hits = self.tracer.intersect_chunk(origins, dirs)
         return _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
                                      p.width, p.height, p.index), dirs

@@ -4,11 +4,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import PatchlightError
-from .builtin import BUILTIN_SCENES, SceneBuilder, builtin_scene
+from .builtin import SceneBuilder, cornell, room
 from .model import Light, Material, Scene
 from .sky import Sky
+from .track import track
 
 __all__ = ["BUILTIN_SCENES", "Light", "Material", "Scene", "SceneBuilder", "Sky", "is_builtin", "load_scene"]
+
+BUILTIN_SCENES = {"room": room, "cornell": cornell, "track": track}  # name -> function making the scene
 
 
 def is_builtin(spec: str | Path) -> bool:
@@ -20,7 +23,7 @@ def is_builtin(spec: str | Path) -> bool:
 def load_scene(spec: str | Path) -> Scene:
     """A built-in scene by name (`is_builtin`) or a .glb/.gltf file by path."""
     if is_builtin(spec):
-        return builtin_scene(spec)
+        return BUILTIN_SCENES[spec]()
     path = Path(spec)
     if path.is_dir() and (path / "scene.glb").exists():
         path = path / "scene.glb"

@@ -14,8 +14,6 @@ import numpy as np
 from .model import Light, Material, Scene, face_normals
 from .sky import Sky
 
-BUILTIN_SCENES = ("room", "cornell", "track")
-
 
 class SceneBuilder:
     """Builds a Scene from oriented quads and boxes: the built-in scenes use it, and so can
@@ -156,8 +154,3 @@ def cornell() -> Scene:
             b.quad(side, white, side.mean(axis=0) - block_centre)
     return b.scene("cornell", camera={"eye": [0.278, 0.273, -0.8], "target": [0.278, 0.273, 0.0], "fov": 39.3})
 
-
-def builtin_scene(name: str) -> Scene:
-    from ..ground.track import track  # the outdoor ground-map demo (issue 5)
-
-    return {"room": room, "cornell": cornell, "track": track}[name]()

@@ -91,25 +91,35 @@ def ambient_cube_light(volume, P: np.ndarray, N: np.ndarray, naive: bool = False
     weighted by ambient_cube_weights."""
     i0, i1, f = ambient_cube_cell(volume, P)
     near, far = ambient_cube_corners(volume, i0, i1, f)
-    w = ambient_cube_weights(N.astype(np.float32), naive)
-    weights = np.concatenate([saturate(w), saturate(-w)], axis=1)  # (N, 6) in axis order
-    light = np.zeros((len(P), 3), np.float32)
-    for axis in range(6):
-        light += weights[:, axis:axis + 1] * ambient_cube_axis(volume, axis, i0, i1, near, far)
-    return light
+    return _weighted_axes(N, naive, lambda axis: ambient_cube_axis(volume, axis, i0, i1, near, far))
 
 
-def sky_volume(sky, ground, ambient):
-    """The model's volume when none was baked: one probe whose +Y axis receives `sky`, -Y
-    `ground` and the four sides `ambient` ((3,) incident light each, as the hemisphere and
-    ambient models use them), so ambient-cube then lights like a hemisphere light."""
-    from ..volumes.grid import ProbeGrid
-    from ..volumes.volume import LightVolume
-
-    cube = np.empty((6, 1, 1, 1, 3), np.float32)
+def sky_cube(sky, ground, ambient) -> np.ndarray:
+    """(6, 3) float32 axis values of the model when no volume was baked, the sky as one probe:
+    +Y receives `sky`, -Y `ground` and the four sides `ambient` ((3,) incident light each, as
+    the hemisphere and ambient models use them), so ambient-cube then lights like a
+    hemisphere light. The viewer uploads them as a one-probe volume
+    (patchlight.volumes.sky_volume)."""
+    cube = np.empty((6, 3), np.float32)
     cube[:] = np.asarray(ambient, np.float32)
     cube[1], cube[4] = np.asarray(sky, np.float32), np.asarray(ground, np.float32)
-    return LightVolume(ProbeGrid((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1, 1, 1)), cube, np.zeros((1, 1, 1), bool))
+    return cube
+
+
+def sky_cube_light(cube: np.ndarray, N: np.ndarray, naive: bool = False) -> np.ndarray:
+    """ambient_cube_light of a one-probe volume of axis values cube (6, 3) (sky_cube): there
+    every point reads the probe itself, so only the normal's weights matter. (N, 3)."""
+    return _weighted_axes(N, naive, lambda axis: cube[axis])
+
+
+def _weighted_axes(N: np.ndarray, naive: bool, axis_light) -> np.ndarray:
+    """sum over the six axes of ambient_cube_weights(N) times axis_light(axis) ((N, 3) or (3,))."""
+    w = ambient_cube_weights(N.astype(np.float32), naive)
+    weights = np.concatenate([saturate(w), saturate(-w)], axis=1)  # (N, 6) in axis order
+    light = np.zeros((len(N), 3), np.float32)
+    for axis in range(6):
+        light += weights[:, axis:axis + 1] * axis_light(axis)
+    return light
 
 
 def volume_texture(volume) -> np.ndarray:

@@ -5,11 +5,6 @@
 (light_*.glsl, falloff.glsl, lights.glsl). Units (DESIGN.md): a light returns incident light
 I, so a white diffuse surface facing it shows radiance I N.L; radiant intensity J (W/sr)
 gives I = J falloff / pi, a sun of irradiance E gives I = E / pi.
-
-Light spec syntax of `--light` (angles in degrees, colours linear RGB, intensity radiometric):
-    dir:DX,DY,DZ:R,G,B:E                                  direction of travel, irradiance W/m^2
-    point:X,Y,Z:R,G,B:J[:RANGE]                            W/sr, range in metres
-    spot:X,Y,Z:DX,DY,DZ:R,G,B:J:OUTER[:INNER[:RANGE]]      cone half-angles, inner defaults to 0
 """
 from __future__ import annotations
 
@@ -126,58 +121,3 @@ def _check_falloff(falloff: str, range_, where: str) -> None:
         raise PatchlightError(f"{where}: unknown falloff {falloff!r} (choose from {', '.join(FALLOFFS)})")
     if falloff == "range" and not (range_ and range_ > 0):
         raise PatchlightError(f"{where}: range falloff needs a range > 0 metres")
-
-
-def parse_light_spec(spec: str, falloff: str = "inverse-square"):
-    """A patchlight.scene.model.Light from a `--light` spec (syntax in the module docstring)."""
-    from ..scene.model import Light
-
-    kind, *fields = spec.split(":")
-    shapes = {"dir": (3, 3, 1), "point": (3, 3, 1, 1), "spot": (3, 3, 3, 1, 1, 1, 1)}
-    required = {"dir": 3, "point": 3, "spot": 5}
-    if kind not in shapes:
-        raise PatchlightError(f"--light {spec}: unknown light kind {kind!r} (dir, point or spot)")
-    if not required[kind] <= len(fields) <= len(shapes[kind]):
-        raise PatchlightError(f"--light {spec}: {kind} takes {required[kind]} to {len(shapes[kind])} "
-                              f"':'-separated fields, got {len(fields)}")
-    values = [_numbers(f, n, spec) for f, n in zip(fields, shapes[kind])]
-    first = 2 if kind == "spot" else 1  # the colour field; the intensity follows it
-    color, (strength,) = values[first], values[first + 1]
-    if min(color) < 0 or strength < 0:
-        raise PatchlightError(f"--light {spec}: colour and intensity must not be negative")
-    if len(values) == len(shapes[kind]) and kind != "dir" and not values[-1][0] > 0:
-        raise PatchlightError(f"--light {spec}: the range must be > 0 metres (leave it out for none)")
-    if kind == "dir":
-        direction, color, (irradiance,) = values
-        return Light("directional", np.array(color, np.float32), irradiance,
-                     direction=_unit(direction, spec), name=spec)
-    if kind == "point":
-        position, color, (intensity,), *rest = values
-        return Light("point", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
-                     range=rest[0][0] if rest else None, name=spec)
-    position, direction, color, (intensity,), (outer,), *rest = values
-    inner = rest[0][0] if rest else 0.0
-    if not 0 <= inner <= outer <= 90:
-        raise PatchlightError(f"--light {spec}: spot angles need 0 <= inner <= outer <= 90 degrees")
-    return Light("spot", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
-                 direction=_unit(direction, spec), range=rest[1][0] if len(rest) > 1 else None,
-                 inner_cone=math.radians(inner), outer_cone=math.radians(outer), name=spec)
-
-
-def _numbers(field: str, count: int, spec: str) -> list[float]:
-    try:
-        values = [float(x) for x in field.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != count or not all(abs(v) <= FLOAT32_MAX for v in values):  # NaN fails too
-        raise PatchlightError(f"--light {spec}: {field!r} should be {count} comma-separated numbers "
-                              f"(each within float32's range)")
-    return values
-
-
-def _unit(v, spec: str) -> np.ndarray:
-    a = np.asarray(v, np.float64)
-    length = float(np.linalg.norm(a))
-    if length == 0:
-        raise PatchlightError(f"--light {spec}: direction must not be zero")
-    return (a / length).astype(np.float32)

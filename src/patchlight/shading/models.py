@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PatchlightError
-from .ambient_cube import ambient_cube_light, sky_volume
+from .ambient_cube import ambient_cube_light, sky_cube, sky_cube_light
 from .directional import DirectionalLightmap, directional_light, directional_specular
 from .hemisphere_radiosity import (GroundMapInputs, apply_fog, check_ambient, fog_factor, hemisphere_radiosity,
                                    hemisphere_radiosity_color, neutral_ground_map)
@@ -44,7 +44,7 @@ class ShadingSettings:
     material's, or None to keep theirs. ground_map: the hemisphere-radiosity model's baked
     ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`). volume: the
     ambient-cube model's light volume (patchlight.volumes.LightVolume), or None for the sky as
-    one probe (`cube_volume`); ambient_cube_naive: weight its axes by saturate(N), not N^2.
+    one probe (`cube_light`); ambient_cube_naive: weight its axes by saturate(N), not N^2.
     directional: the lightmap-directional model's DirectionalLightmap (a bake's), or None."""
 
     model: str = "lambert"
@@ -62,9 +62,12 @@ class ShadingSettings:
     ambient_cube_naive: bool = False
     directional: DirectionalLightmap | None = None
 
-    def cube_volume(self):
-        """The ambient-cube model's volume: the baked one, else one probe of sky, ground and ambient."""
-        return self.volume if self.volume is not None else sky_volume(self.sky, self.ground, self.ambient)
+    def cube_light(self, P: np.ndarray, N: np.ndarray) -> np.ndarray:
+        """The ambient-cube model's incident light (N, 3) at points P with normals N: from the
+        baked volume, else from the sky as one probe (sky_cube)."""
+        if self.volume is None:
+            return sky_cube_light(sky_cube(self.sky, self.ground, self.ambient), N, self.ambient_cube_naive)
+        return ambient_cube_light(self.volume, P, N, self.ambient_cube_naive)
 
     def radiosity_inputs(self) -> GroundMapInputs:
         """The hemisphere-radiosity model's map: the baked one, else one texel of `ground`."""
@@ -188,9 +191,8 @@ def light_surface(settings: ShadingSettings, P: np.ndarray, N: np.ndarray, V: np
     if model == "hemisphere":
         lit.diffuse[:] = hemisphere_light(N, settings.sky, settings.ground)
     elif model == "ambient-cube":
-        volume, naive = settings.cube_volume(), settings.ambient_cube_naive
-        lit.diffuse[:] = ambient_cube_light(volume, P, N, naive)
-        lit.specular[:] = np.reshape(reflectivity, (-1, 1)) * ambient_cube_light(volume, P, lit.reflected, naive)
+        lit.diffuse[:] = settings.cube_light(P, N)
+        lit.specular[:] = np.reshape(reflectivity, (-1, 1)) * settings.cube_light(P, lit.reflected)
     elif model not in ("unlit", *LIGHTMAP_MODELS):
         lit.diffuse[:] = settings.ambient
     if model not in UNLIT_BY_LIGHTS:

@@ -12,8 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.model import Scene
-
 
 @dataclass
 class SurfaceArrays:
@@ -31,7 +29,8 @@ class SurfaceArrays:
     material_ids: np.ndarray
 
     @classmethod
-    def from_scene(cls, scene: Scene) -> "SurfaceArrays":
+    def from_scene(cls, scene) -> "SurfaceArrays":
+        """The arrays of a patchlight.scene.Scene (any object with its vertex and index arrays)."""
         n = len(scene.positions)
         normals = _unit_rows(np.asarray(scene.normals, np.float32), fallback=(0.0, 1.0, 0.0))
         tangents = (np.asarray(scene.tangents, np.float32) if scene.tangents is not None

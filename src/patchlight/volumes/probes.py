@@ -29,9 +29,9 @@ import numpy as np
 
 from ..errors import PatchlightError
 from ..progress import Progress
-from ..radiosity import _kernels
 from ..radiosity.direct import direct_light
 from ..radiosity.hemicube import stratified_directions
+from ..rays.hemisphere import hemisphere_rays, row_angles
 from ..rays.tracer import Tracer
 from ..solved import SolvedScene
 from . import _kernels as _volume_kernels
@@ -46,8 +46,7 @@ T_NEAR = 2e-4               # rays start this far along (x the scene's size): a 
 OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
 RAYS_PER_CHUNK = 1 << 20    # rays traced per batch: bounds memory at ~100 MB
 MAX_RAYS = 16384            # rays per axis
-GOLDEN = 0.6180339887498949
-MAX_SEED = 2**32 - 1        # numpy's seed range; (row + seed) x GOLDEN keeps its precision below it
+MAX_SEED = 2**32 - 1        # numpy's seed range; row_angles' (row + seed) x golden ratio keeps its precision below it
 
 
 @dataclass
@@ -125,8 +124,7 @@ class IncidentGatherer:
     def _gather_rows(self, origins, normals, offset, rows) -> tuple[np.ndarray, ...]:
         """gather's results for `rows`; each row's ray pattern turned by its own angle."""
         d = self.rays_per_point
-        angles = 2 * np.pi * np.modf((rows + self.settings.seed) * GOLDEN)[0]
-        o, dirs = _kernels.make_rays(origins, normals, offset, rows, self.dirs, angles)
+        o, dirs = hemisphere_rays(origins, normals, offset, rows, self.dirs, row_angles(rows, self.settings.seed))
         hits = self.tracer.intersect(o + self.t_near * dirs, dirs)
         light, back, open_side = _volume_kernels.sum_rows(
             hits.tri, hits.u, hits.v, hits.front, dirs, self.weights, self.tri_uv1, self.lightmap,

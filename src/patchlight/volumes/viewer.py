@@ -7,7 +7,7 @@ import numpy as np
 
 from ..shading.ambient_cube import volume_texture
 from .io import HEADER, read_volume
-from .volume import LightVolume
+from .volume import LightVolume, sky_volume
 
 
 def volume_bundle(pack, settings) -> dict:
@@ -15,7 +15,8 @@ def volume_bundle(pack, settings) -> dict:
     origin, spacing, dims; `texture`, the name of its (6 NZ, NY, NX, 4) texels in data.bin
     (RGB light, alpha validity; see ambient_cube.glsl); `inside`, the name of its (NZ, NY, NX) 0/1 flags; `baked`: False
     when the model falls back to the sky as one probe (then the page adds no moving objects)."""
-    volume: LightVolume = settings.cube_volume()
+    volume = settings.volume if settings.volume is not None else sky_volume(settings.sky, settings.ground,
+                                                                             settings.ambient)
     grid = volume.grid
     return {"origin": list(grid.origin), "spacing": list(grid.spacing), "dims": list(grid.dims),
             "texture": pack.add("ambient_cube_volume", volume_texture(volume)),

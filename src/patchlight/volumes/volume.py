@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..shading.ambient_cube import sky_cube
 from ..shading.environment import LUMINANCE
 from .grid import ProbeGrid
 
@@ -53,6 +54,13 @@ class LightVolume:
         if not np.all((self.validity >= 0) & (self.validity <= 1)):
             raise ValueError("LightVolume: validity must lie in 0..1 (what read_volume accepts)")
 
+
+
+def sky_volume(sky, ground, ambient) -> LightVolume:
+    """The ambient-cube model's volume when none was baked: one probe holding
+    patchlight.shading.ambient_cube.sky_cube(sky, ground, ambient)."""
+    cube = sky_cube(sky, ground, ambient)[:, None, None, None, :]
+    return LightVolume(ProbeGrid((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1, 1, 1)), cube, np.zeros((1, 1, 1), bool))
 
 def compact(cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The article's compact form of cube (6, ..., 3): colour (..., 3) with luminance 1 (white

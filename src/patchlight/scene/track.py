@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.builtin import SceneBuilder
-from ..scene.model import Light, Scene
-from ..scene.sky import Sky
+from .builtin import SceneBuilder
+from .model import Light, Scene
+from .sky import Sky
 
 FIELD = 80.0            # half size of the grass field, metres
 STRAIGHT = 40.0         # half length of each straight

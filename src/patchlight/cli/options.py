@@ -1,0 +1,246 @@
+"""What the subcommands share: option groups, parsers of flag values, and loading what the
+flags name.
+
+Light spec syntax of `--light` (angles in degrees, colours linear RGB, intensity radiometric):
+    dir:DX,DY,DZ:R,G,B:E                                  direction of travel, irradiance W/m^2
+    point:X,Y,Z:R,G,B:J[:RANGE]                            W/sr, range in metres
+    spot:X,Y,Z:DX,DY,DZ:R,G,B:J:OUTER[:INNER[:RANGE]]      cone half-angles, inner defaults to 0
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..config import FALLOFFS, BakeSettings
+from ..errors import PatchlightError
+from ..shading.hemisphere_radiosity import OFFSET_MODES
+from ..scene.model import MAX_LIGHT
+from ..shading.lights import FLOAT32_MAX
+from .parser import finite_number
+
+DEFAULTS = BakeSettings()
+MAX_SIZE = 16384  # --size: largest picture width or height
+MAX_PIXELS = 1 << 24  # 4096 x 4096: the renderer keeps ~100 bytes per pixel, several times over
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'WxH' -> (width, height), each in 1..MAX_SIZE, at most MAX_PIXELS in all."""
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WxH, e.g. 1024x768, got {text!r}") from None
+    if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
+        raise argparse.ArgumentTypeError(f"{text}: width and height must lie in 1..{MAX_SIZE}")
+    if width * height > MAX_PIXELS:
+        raise argparse.ArgumentTypeError(f"{text}: more than {MAX_PIXELS} pixels (4096x4096)")
+    return width, height
+
+
+def parse_rgb(text: str) -> tuple[float, float, float]:
+    """'R,G,B' -> three floats in 0..MAX_LIGHT, or a one-line error."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(0 <= v <= MAX_LIGHT for v in values):
+        raise argparse.ArgumentTypeError(f"expected R,G,B (three numbers in 0..{MAX_LIGHT:g}), got {text!r}")
+    return values
+
+
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """Sky and light options shared by every command that lights a scene."""
+    sky = p.add_mutually_exclusive_group()
+    sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="uniform sky radiance")
+    sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
+                     help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
+    sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
+    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff,
+                   help="point/spot falloff for lights that name none (default %(default)s)")
+    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help="sun's angular diameter, soft shadows")
+
+
+def add_shading_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by `render` and `view`: lights, surroundings and the model options."""
+    p.add_argument("--light", action="append", metavar="SPEC",
+                   help="replace the scene's lights (repeatable): dir:DX,DY,DZ:R,G,B:E | "
+                        "point:X,Y,Z:R,G,B:J[:RANGE] | spot:X,Y,Z:DX,DY,DZ:R,G,B:J:OUTER[:INNER[:RANGE]] "
+                        "(E in W/m^2, J in W/sr, angles in degrees)")
+    p.add_argument("--falloff", choices=FALLOFFS, default="inverse-square",
+                   help="point/spot falloff for lights that name none (default %(default)s)")
+    sky = p.add_mutually_exclusive_group()  # add_scene_options' flags, read by sky_from_args
+    sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="replace the scene's sky: uniform radiance")
+    sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
+                     help="replace the scene's sky: radiance at the zenith, the horizon and below it")
+    sky.add_argument("--sky-image", type=Path, metavar="FILE",
+                     help="replace the scene's sky: an equirectangular .exr or .hdr")
+    p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
+                   help="ambient incident light (default: from the sky, else 0.05 grey)")
+    p.add_argument("--reflectivity", type=finite_number, metavar="K", help="envmap reflectivity of every material (0..1)")
+    p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
+    p.add_argument("--normal-map", nargs="?", const=True, default=False, type=Path, metavar="PNG",
+                   help="tangent-space normal maps, colour alpha as gloss: the materials' own, or this image "
+                        "(e.g. from `patchlight normalmap`) for every material")
+    p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
+    p.add_argument("--volume", type=Path, metavar="DIR",
+                   help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
+    p.add_argument("--naive-weights", action="store_true", help="ambient-cube model: weight the axes by saturate(N)")
+    p.add_argument("--offset-mode", choices=OFFSET_MODES, metavar="normal|side|none",
+                   help="hemisphere-radiosity model: where a ground map directory's map is sampled, offset along "
+                        "the normal, its left-right part only, or not at all (default: the map's groundmap.json)")
+
+
+def sky_from_args(args):
+    """The Sky the --sky / --sky-gradient / --sky-image flags ask for, or None (keep the scene's)."""
+    from ..scene import Sky
+
+    if args.sky is not None:
+        return Sky.uniform(args.sky)
+    if args.sky_gradient is not None:
+        return Sky.gradient(*args.sky_gradient)
+    if args.sky_image is not None:
+        from ..imaging.io import read_environment
+
+        return Sky.from_image(read_environment(args.sky_image), source=args.sky_image)
+    return None
+
+
+def load_lit_scene(args):
+    """The scene named on the command line, with the sky the flags give."""
+    from ..scene import load_scene
+
+    scene = load_scene(args.scene)
+    sky = sky_from_args(args)
+    if sky is not None:
+        scene.sky = sky
+    return scene
+
+
+def load_target_and_settings(args, model: str | None):
+    """The target the arguments name and its ShadingSettings (exposure left at 1). A ground
+    map directory names its bake, with the map as the hemisphere-radiosity model's. model None:
+    lightmap when the target has one (a bake), else lambert."""
+    from ..ground.viewer import view_target
+    from ..render.settings import target_settings
+    from ..render.target import load_target
+    from ..volumes.viewer import find_volume
+
+    spec, ground_map = view_target(args.target, args.offset_mode)
+    target = load_target(spec)
+    sky = sky_from_args(args)
+    if sky is not None:
+        target.scene.sky = sky
+    lights = None if args.light is None else [parse_light_spec(spec) for spec in args.light]
+    if isinstance(args.normal_map, Path):
+        use_normal_map(target, args.normal_map)
+    if args.normal_map and all(m.normal_texture is None for m in target.scene.materials):
+        raise PatchlightError(f"--normal-map: no material of {target.name} has a normal texture")
+    if model is None:
+        model = "lightmap" if target.lightmap is not None else "lambert"
+    settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
+                               per_vertex=args.per_vertex, normal_map=bool(args.normal_map),
+                               lightmap_specular=args.specular, reflectivity=args.reflectivity,
+                               ground_map=ground_map, volume=find_volume(args.volume, target.bake_dir),
+                               ambient_cube_naive=args.naive_weights)
+    return target, settings
+
+
+def use_normal_map(target, path: Path) -> None:
+    """Give every material of `target` the normal map image at `path` (RGB, stored values)."""
+    from ..imaging.io import read_image
+
+    image = read_image(path)
+    if image.shape[2] < 3:
+        raise PatchlightError(f"--normal-map {path}: a normal map needs RGB channels, the image has {image.shape[2]}")
+    for material in target.scene.materials:
+        material.normal_texture = np.ascontiguousarray(image[..., :3])
+
+
+def parse_point(text: str, where: str):
+    try:
+        point = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        point = np.zeros(0)
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise PatchlightError(f"{where} {text}: expected X,Y,Z")
+    return point
+
+
+def parse_exposure(text: str) -> float | None:
+    """None for auto, else a positive float."""
+    if text == "auto":
+        return None
+    try:
+        k = float(text)
+    except ValueError:
+        k = float("nan")
+    if not (k > 0 and k < float("inf")):
+        raise PatchlightError(f"--exposure {text}: expected a positive number or auto")
+    return k
+
+
+def load_solved_from_args(args, quiet: bool):
+    """The solved scene the arguments name, baked now (default settings, the flags' falloff
+    and sun angle) when it is not a bake directory."""
+    from ..config import BakeSettings
+    from ..solved import load_solved
+
+    settings = BakeSettings(falloff=args.falloff, sun_angle=args.sun_angle)
+    return load_solved(args.scene, settings, sky=sky_from_args(args), quiet=quiet)
+
+
+def parse_light_spec(spec: str, falloff: str = "inverse-square"):
+    """A patchlight.scene.model.Light from a `--light` spec (syntax in the module docstring)."""
+    from ..scene.model import Light
+
+    kind, *fields = spec.split(":")
+    shapes = {"dir": (3, 3, 1), "point": (3, 3, 1, 1), "spot": (3, 3, 3, 1, 1, 1, 1)}
+    required = {"dir": 3, "point": 3, "spot": 5}
+    if kind not in shapes:
+        raise PatchlightError(f"--light {spec}: unknown light kind {kind!r} (dir, point or spot)")
+    if not required[kind] <= len(fields) <= len(shapes[kind]):
+        raise PatchlightError(f"--light {spec}: {kind} takes {required[kind]} to {len(shapes[kind])} "
+                              f"':'-separated fields, got {len(fields)}")
+    values = [_numbers(f, n, spec) for f, n in zip(fields, shapes[kind])]
+    first = 2 if kind == "spot" else 1  # the colour field; the intensity follows it
+    color, (strength,) = values[first], values[first + 1]
+    if min(color) < 0 or strength < 0:
+        raise PatchlightError(f"--light {spec}: colour and intensity must not be negative")
+    if len(values) == len(shapes[kind]) and kind != "dir" and not values[-1][0] > 0:
+        raise PatchlightError(f"--light {spec}: the range must be > 0 metres (leave it out for none)")
+    if kind == "dir":
+        direction, color, (irradiance,) = values
+        return Light("directional", np.array(color, np.float32), irradiance,
+                     direction=_unit(direction, spec), name=spec)
+    if kind == "point":
+        position, color, (intensity,), *rest = values
+        return Light("point", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
+                     range=rest[0][0] if rest else None, name=spec)
+    position, direction, color, (intensity,), (outer,), *rest = values
+    inner = rest[0][0] if rest else 0.0
+    if not 0 <= inner <= outer <= 90:
+        raise PatchlightError(f"--light {spec}: spot angles need 0 <= inner <= outer <= 90 degrees")
+    return Light("spot", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
+                 direction=_unit(direction, spec), range=rest[1][0] if len(rest) > 1 else None,
+                 inner_cone=math.radians(inner), outer_cone=math.radians(outer), name=spec)
+
+
+def _numbers(field: str, count: int, spec: str) -> list[float]:
+    try:
+        values = [float(x) for x in field.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != count or not all(abs(v) <= FLOAT32_MAX for v in values):  # NaN fails too
+        raise PatchlightError(f"--light {spec}: {field!r} should be {count} comma-separated numbers "
+                              f"(each within float32's range)")
+    return values
+
+
+def _unit(v, spec: str) -> np.ndarray:
+    a = np.asarray(v, np.float64)
+    length = float(np.linalg.norm(a))
+    if length == 0:
+        raise PatchlightError(f"--light {spec}: direction must not be zero")
+    return (a / length).astype(np.float32)

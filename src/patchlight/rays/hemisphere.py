@@ -1,0 +1,55 @@
+"""The hemisphere ray pattern every gatherer casts: one pattern of directions around the
+normal, turned about it by a golden-ratio angle of each point's row, so neighbouring points look
+through differently turned patterns and a pattern's aliasing becomes fine noise instead of bands
+a texel high along whole walls (measured up to 30 % at hemicube 32 in the room); a re-gather of
+the same row sees the same rays."""
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+GOLDEN = 0.6180339887498949  # the golden ratio's fractional part
+
+
+def row_angles(rows: np.ndarray, seed: int) -> np.ndarray:
+    """(R,) float64 rotation (radians) of the pattern about the normal of each row `rows` (R,)."""
+    return (2 * np.pi) * np.modf((rows.astype(np.float64) + seed) * GOLDEN)[0]
+
+
+@nb.njit(cache=True, inline="always")
+def _basis(n):
+    """Orthonormal tangent and bitangent for unit normal n (Duff et al. 2017)."""
+    sign = 1.0 if n[2] >= 0.0 else -1.0
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    t = np.array([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]])
+    s = np.array([b, sign + n[1] * n[1] * a, -n[1]])
+    return t, s
+
+
+@nb.njit(cache=True, nogil=True)
+def hemisphere_rays(position, normal, offset, rows, local_dirs, angles):
+    """Origins and directions (len(rows) * D, 3) f32 for the patches `rows`.
+
+    position, normal: (N, 3); offset: (N,) distance to lift each origin along its normal;
+    local_dirs: (D, 3) directions with z along the normal; angles: (len(rows),) rotation of
+    the pattern about each patch's normal (radians).
+    """
+    d = local_dirs.shape[0]
+    origins = np.empty((rows.shape[0] * d, 3), np.float32)
+    dirs = np.empty((rows.shape[0] * d, 3), np.float32)
+    for k in range(rows.shape[0]):
+        p = rows[k]
+        n = normal[p].astype(np.float64)
+        t, s = _basis(n)
+        c, si = np.cos(angles[k]), np.sin(angles[k])
+        tr = c * t + si * s
+        sr = -si * t + c * s
+        o = position[p] + offset[p] * normal[p]
+        for j in range(d):
+            x, y, z = local_dirs[j, 0], local_dirs[j, 1], local_dirs[j, 2]
+            i = k * d + j
+            for a in range(3):
+                origins[i, a] = o[a]
+                dirs[i, a] = x * tr[a] + y * sr[a] + z * n[a]
+    return origins, dirs
