@@ -15,7 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.config import BakeSettings
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
 from patchlight.scene import load_scene

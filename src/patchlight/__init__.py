@@ -3,7 +3,8 @@
 The Python API that the CLI calls:
 
     from patchlight import BakeSettings, load_scene
-    from patchlight.bake import bake, write_bake
+    from patchlight.bake import bake
+    from patchlight.bakedir import write_bake
 
     scene = load_scene("room")                      # a built-in name or a .glb / .gltf path
     settings = BakeSettings(resolution=256)

@@ -1,17 +1,17 @@
 """The bake pipeline: Scene -> atlas -> patches -> direct -> gather -> passes -> lightmap.
 
 Each stage is a function of arrays (docs/architecture.md); this module only strings them
-together, times them, and writes the results. The CLI and the Python API both call `bake`.
+together and times them; `patchlight.bakedir` writes the results. The CLI and the Python API
+both call `bake`.
 """
 from __future__ import annotations
 
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
-
 import numpy as np
 
+from .atlas.lightmap import denoised_incident, fill_lightmap, stitch_seams
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
@@ -19,23 +19,14 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
-from .radiosity.gather import Gatherer
+from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
 from .radiosity.memory import available_memory, check_bake_memory, form_factor_budget
+from .radiosity.sampling import gather_adaptive
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
-from .texels import TEXELS_FILE, Texels
-
-FLOAT32_REACH = 1e-5        # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
-INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
-PROBE_BACK_FRACTION = 0.7   # ... and one whose 16 probe rays are 12 or more on back faces needs
-                            # no gather to tell (the gather decides the borderline rest)
-DILATE_TEXELS = 4           # rings grown past chart borders so bilinear filtering never reads black
-REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
-REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
-REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
-
+from .texels import Texels
 
 @dataclass
 class BakeResult:
@@ -55,7 +46,8 @@ class BakeResult:
 
     def pass_images(self) -> list[np.ndarray]:
         """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is."""
-        return [fill_lightmap(self.patches, I, self.status) for I in self.pass_incident]
+        inside = self.status == adaptive.INSIDE
+        return [fill_lightmap(self.patches, I, inside) for I in self.pass_incident]
 
     def texels(self) -> Texels:
         """The per-texel arrays of texels.npz."""
@@ -80,110 +72,13 @@ def _input_warnings(scene: Scene) -> list[str]:
     return [f"{where}: {n} {what}" for n, what in counted if n] + list(scene.extras.get("warnings", []))
 
 
-def _tri_uv1(scene: Scene) -> np.ndarray:
-    return np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
-
-
-def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
-    """(N,) distance to lift ray origins off each patch: a twentieth of its texel, and never
-    less than float32's reach where the patch lies (FLOAT32_REACH of its largest coordinate,
-    over a hundred float32 steps, plus a millionth of the scene's size)."""
-    lo, hi = scene.bounds()
-    reach = FLOAT32_REACH * np.abs(patches.position).max(axis=1) + 1e-6 * float(np.max(hi - lo))
-    return np.maximum(0.05 * patches.size, reach).astype(np.float32)
-
-
-def _gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
-                     progress: Progress):
-    """Run the adaptive sampler, first at settings.first_accuracy, then at settings.accuracy
-    (adaptive.py); returns (status, order): the sampler's interpolation order."""
-    n = len(patches)
-    status = np.zeros(n, np.int8)
-    if settings.adaptive:
-        grid, phases = adaptive.sampler_plan(patches)
-    else:
-        grid, phases = np.arange(n), []
-    order = adaptive.flatten(phases)
-    with progress.stage("gather", total=n) as advance:
-        _compute(ff, grid, status, advance)
-        B = None
-        for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
-            adaptive.reopen(status)
-            for k, phase in enumerate(phases):
-                passes = REFINE_FIRST_PASSES if k == 0 else REFINE_PASSES
-                solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                                 passes, max(settings.tolerance, REFINE_TOLERANCE), B)
-                B, G = solution.excident, solution.gathered
-                for step in phase:
-                    _compute(ff, adaptive.decide(step, status, G, accuracy), status, advance)
-    return status, order
-
-
-def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
-    """Gather patches `rows`, but for those a probe or their own gather finds inside geometry."""
-    inside = ff.probe_inside(rows, PROBE_BACK_FRACTION)
-    status[rows[inside]] = adaptive.INSIDE
-    advance(int(inside.sum()))
-    rows = rows[~inside]
-    status[rows] = adaptive.COMPUTED
-    back = ff.add(rows.astype(np.int64), progress=advance)
-    status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
-
-
-def fill_lightmap(patches: Patches, incident: np.ndarray, status: np.ndarray) -> np.ndarray:
-    """(H, W, 3) lightmap: texels inside geometry next to valid ones filled from them (up to
-    DILATE_TEXELS rings deep, so bilinear filtering at a joint reads no darkness; deeper ones
-    stay black), then grown past chart borders by DILATE_TEXELS rings."""
-    from .imaging.dilate import dilate
-
-    image = patches.to_image(incident.astype(np.float32))
-    covered = patches.index >= 0
-    valid = covered & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
-    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=covered)
-    image[covered & ~valid] = 0.0
-    image, _ = dilate(image, covered, texels=DILATE_TEXELS)
-    return image
-
-
-def directional_images(scene: Scene, patches: Patches, status: np.ndarray, gatherer: Gatherer, solution: Solution,
+def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, gatherer: Gatherer, solution: Solution,
                        per_light: list[np.ndarray], rows: np.ndarray, mode: str, advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
     sums = gather_directions(gatherer, solution.excident, rows, advance)
     add_direct(sums, patches, scene.lights, per_light)
-    return fill_lightmap(patches, sums.lightmap_values(mode), status)
-
-
-def stitch_seams(scene: Scene, patches: Patches, status: np.ndarray, images: list[np.ndarray]) -> tuple[list, dict]:
-    """The lightmap-space images with their UV chart seams stitched (imaging/stitch.py; texels
-    inside geometry and outside the charts only follow), and the seams' relative differences
-    before and after (median, p90, max over points every half texel) for bake.json."""
-    from .atlas.seams import seam_edges
-    from .imaging.stitch import seam_differences, stitch
-
-    uv_a, uv_b = seam_edges(scene.positions, scene.normals, scene.indices, scene.uv1)
-    valid = (patches.index >= 0) & (patches.to_image(status, fill=adaptive.INSIDE) != adaptive.INSIDE)
-    stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
-
-    def summary(image):
-        d = seam_differences(image, uv_a, uv_b)
-        return {"median": float(np.median(d)), "p90": float(np.percentile(d, 90)), "max": float(d.max())} if len(d) \
-            else {"median": 0.0, "p90": 0.0, "max": 0.0}
-
-    return stitched, {"edges": len(uv_a), "before": summary(images[0]), "after": summary(stitched[0])}
-
-
-def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray, status: np.ndarray) -> np.ndarray:
-    """(N, 3) incident light with only its gathered part denoised (by OIDN, chart by chart):
-    ray-traced direct light and its sharp shadows stay as they are."""
-    from .imaging.denoise import denoise_lightmap
-
-    inside = status == adaptive.INSIDE
-    charts = patches.to_image(np.where(inside, -1, patches.chart).astype(np.int32), fill=-1)
-    clean = denoise_lightmap(patches.to_image(gathered.astype(np.float32)), charts)
-    incident = direct + clean[patches.texel_y, patches.texel_x]
-    incident[inside] = 0.0
-    return incident
+    return fill_lightmap(patches, sums.lightmap_values(mode), inside)
 
 
 def _join_cluster(address: str | None):
@@ -197,7 +92,7 @@ def _join_cluster(address: str | None):
 
 
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
-    """Bake converged radiosity for `scene`; nothing is written (see `write_bake`)."""
+    """Bake converged radiosity for `scene`; nothing is written (see `patchlight.bakedir.write_bake`)."""
     from .atlas.raster import rasterize, texel_points
     from .atlas.uvs import ensure_lightmap_uvs
 
@@ -231,13 +126,14 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
         rays_direct = tracer.rays_traced
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
-        gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
+        gatherer = Gatherer(patches, corner_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
         gatherer.cluster = cluster
         budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
-        status, order = _gather_adaptive(ff, patches, direct, settings, progress)
+        status, order = gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
+        inside = status == adaptive.INSIDE
         rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
         pass_incident = []
         with progress.stage("passes", total=settings.passes) as advance:
@@ -250,18 +146,18 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("lightmap"):
             incident = solution.incident
             if settings.denoise:
-                incident = denoised_incident(patches, direct, solution.gathered, status)
-            lightmap = fill_lightmap(patches, incident, status)
+                incident = denoised_incident(patches, direct, solution.gathered, inside)
+            lightmap = fill_lightmap(patches, incident, inside)
         images = [lightmap]
         if settings.directional:
-            valid = np.flatnonzero(status != adaptive.INSIDE)
+            valid = np.flatnonzero(~inside)
             with progress.stage("directional", total=len(valid)) as advance:
-                images.append(directional_images(scene, patches, status, gatherer, solution, per_light, valid,
+                images.append(directional_images(scene, patches, inside, gatherer, solution, per_light, valid,
                                                  settings.directional, advance))
         seams = None
         if settings.stitch:
             with progress.stage("seams"):
-                images, seams = stitch_seams(scene, patches, status, images)
+                images, seams = stitch_seams(scene, patches, inside, images)
         lightmap = images[0]
         directional = split_maps(settings.directional, images[1]) if settings.directional else None
     counts = np.bincount(status, minlength=4)
@@ -295,51 +191,3 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
     return BakeResult(scene, patches, lightmap, status, solution, stats, pass_incident, directional)
-
-
-BAKE_MARKER = "bake.json"          # written last: a directory is a bake only with it
-BAKE_STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older bake's files a new one need not write
-
-
-def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dict:
-    """Write lightmap.exr, lightmap.png, adaptive.png, texels.npz, scene.glb, bake.json (and
-    the pass pictures) into out_dir as one set (`patchlight.outputs.staged_output`: swapped in whole,
-    in one atomic step); returns the summary that bake.json holds."""
-    from .outputs import staged_output
-
-    with staged_output(out_dir, stale=BAKE_STALE) as staging:
-        return stage_bake(result, staging, out_dir, settings)
-
-
-def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeSettings) -> dict:
-    """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
-    stale globs include BAKE_STALE; returns the summary."""
-    from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, write_bytes, write_exr, write_json, write_png
-    from .scene.gltf import save_baked_glb
-
-    k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
-    pictures = {"lightmap.png": exposed_png_pixels(result.lightmap, k),
-                "adaptive.png": adaptive.debug_image(result.patches, result.status)}
-    if settings.save_passes:
-        pictures.update({f"pass_{i:02d}.png": exposed_png_pixels(image, k)
-                         for i, image in enumerate(result.pass_images(), start=1)})
-    value_range = float(max(1.0, result.lightmap.max()))
-    meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
-            "threeLightMapIntensity": float(np.pi), "exposure": k}
-    extra = [] if result.directional is None else [result.directional.file_name]
-    names = sorted(["lightmap.exr", "scene.glb", TEXELS_FILE, BAKE_MARKER, *pictures, *extra])
-    sky = result.scene.sky
-    summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
-               "sky": None if sky is None else sky.to_json(),
-               **result.stats, "files": names}
-    write_exr(staging / "lightmap.exr", result.lightmap)
-    if result.directional is not None:
-        result.directional.save(staging)
-    write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
-    for name, pixels in pictures.items():
-        write_png(staging / name, pixels)
-    save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,
-                   folder=out_dir)
-    write_json(staging / BAKE_MARKER, summary)
-    return summary

@@ -13,18 +13,17 @@ hemisphere seen from above (orthographic: cosine-weighted rays fall uniformly on
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .errors import PatchlightError
-from .radiosity import _kernels
+from .radiosity.gather import BACK_FACE, LOST, SKY
 
 DISK_PIXELS = 128     # a stratified view's picture is this many pixels across
-MARKS = {_kernels.BACK_FACE: (1.0, 0.0, 1.0), _kernels.LOST: (1.0, 1.0, 0.0)}  # linear display colours
-KINDS = {"sky": _kernels.SKY, "back face": _kernels.BACK_FACE, "lost": _kernels.LOST}
+MARKS = {BACK_FACE: (1.0, 0.0, 1.0), LOST: (1.0, 1.0, 0.0)}  # linear display colours
+KINDS = {"sky": SKY, "back face": BACK_FACE, "lost": LOST}
 BACKGROUND = -100  # picture pixels no ray reaches (the cross's corners, between the dots)
 BACKGROUND_COLOUR = (0.02, 0.02, 0.02)
 
@@ -127,24 +126,22 @@ class PatchViews:
     excident light B of texels.npz."""
 
     def __init__(self, bake_dir: str | Path):
+        from . import bakedir
         from .atlas.raster import rasterize
-        from .bake import _tri_uv1, ray_offsets
-        from .imaging.io import read_bytes
-        from .radiosity.gather import Gatherer
+        from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
         from .rays.tracer import Tracer
-        from .scene import load_scene
         from .texels import read_bake_texels
 
         bake_dir = Path(bake_dir)
         self.texels = read_bake_texels(bake_dir)
         if self.texels is None:
             raise PatchlightError(f"{bake_dir}: no texels.npz (bake it again to view from a patch)")
-        settings = json.loads(read_bytes(bake_dir / "bake.json"))["settings"]
-        scene = load_scene(bake_dir / "scene.glb")
+        settings = bakedir.read_summary(bake_dir)["settings"]
+        scene = bakedir.read_scene(bake_dir)
         height, width = self.texels.status.shape
         self.patches, _ = rasterize(scene, width, height)
         size = settings["hemicube_size"] if settings["gather"] == "hemicube" else settings["rays"]
-        self.gatherer = Gatherer(self.patches, _tri_uv1(scene), Tracer(scene.positions, scene.indices), scene.sky,
+        self.gatherer = Gatherer(self.patches, corner_uv1(scene), Tracer(scene.positions, scene.indices), scene.sky,
                                  settings["gather"], size, ray_offsets(scene, self.patches), settings["seed"])
         self.size = size
 
@@ -160,7 +157,7 @@ class PatchViews:
         radiance = np.zeros((len(seen), 3), np.float32)
         hit = seen >= 0
         radiance[hit] = self.texels.excident[p.texel_y[seen[hit]], p.texel_x[seen[hit]]]
-        sky = seen == _kernels.SKY
+        sky = seen == SKY
         if g.sky is not None and sky.any():
             radiance[sky] = g.sky.radiance(directions[sky])
         origin = p.position[row] + g.offset[row] * p.normal[row]

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import bakedir
 from .config import BakeSettings
-from .errors import PatchlightError
 from .scene.model import Scene
 from .shading.surface import interpolate
 
@@ -71,34 +71,16 @@ def _at_hits(attribute: np.ndarray, indices: np.ndarray, tri, u, v) -> np.ndarra
     return interpolate(attribute, indices[tri], np.stack([1 - u - v, u, v], axis=1))
 
 
-def is_bake_dir(path: str | Path) -> bool:
-    """A complete bake: scene.glb and lightmap.exr, and bake.json, which is written last."""
-    from .scene import is_builtin
-
-    p = Path(path)
-    return not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in ("scene.glb", "lightmap.exr", "bake.json"))
-
-
 def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None, quiet: bool = True) -> SolvedScene:
     """A bake directory as written by `patchlight bake`, or a scene (file or built-in name)
     baked now with `settings`. sky, when given, replaces the scene's."""
-    from .imaging.io import read_exr
-    from .outputs import read_consistently
     from .scene import is_builtin, load_scene
 
-    def read_bake():
-        scene = load_scene(Path(spec) / "scene.glb")
+    if not is_builtin(spec) and Path(spec).is_dir():  # a bake directory, else its one-line error
+        scene, lightmap = bakedir.read_bake(bakedir.require_bake_dir(spec))
         if sky is not None:
             scene.sky = sky
-        lightmap = read_exr(Path(spec) / "lightmap.exr")
-        if scene.uv1 is None:
-            raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
         return SolvedScene(scene, lightmap, str(spec))
-
-    if is_bake_dir(spec):
-        return read_consistently(spec, read_bake)  # never one bake's scene.glb with another's lightmap
-    if not is_builtin(spec) and Path(spec).is_dir():
-        raise PatchlightError(f"{spec}: not a complete bake (needs scene.glb, lightmap.exr and bake.json)")
     from .bake import bake
 
     scene = load_scene(spec)

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from patchlight import outputs
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
 from patchlight.scene import SceneBuilder, Sky

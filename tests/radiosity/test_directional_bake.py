@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from render_scenes import _box, _quad, normal_texture, scene_from_parts
 
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
 from patchlight.imaging.io import read_exr

@@ -6,7 +6,8 @@ that every 1/pi of the gather, the passes and the direct light is in its place."
 import numpy as np
 import pytest
 
-from patchlight.bake import bake, ray_offsets
+from patchlight.bake import bake
+from patchlight.radiosity.gather import ray_offsets
 from patchlight.config import BakeSettings
 from patchlight.radiosity import adaptive
 from patchlight.radiosity.hemicube import concentric_disk

@@ -247,7 +247,7 @@ def test_adaptive_sampling_computes_under_half_of_a_smooth_wall_and_keeps_the_sh
 def test_ray_origins_clear_float32_rounding_without_skipping_thin_geometry_in_a_kilometre_level():
     from types import SimpleNamespace
 
-    from patchlight.bake import ray_offsets
+    from patchlight.radiosity.gather import ray_offsets
 
     scene = plane(size=1000.0).scene("level")
     texels = SimpleNamespace(position=np.array([[400.0, 0.0, 400.0], [0.0, 0.0, 0.0]], np.float32),

@@ -12,7 +12,8 @@ import pygltflib as gl
 import pytest
 
 from patchlight.atlas import _kernels as atlas_kernels
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
 from patchlight.imaging.io import decode_image, encode_png, read_exr, write_hdr

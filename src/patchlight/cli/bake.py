@@ -91,7 +91,8 @@ def settings_from_args(args) -> BakeSettings:
 
 
 def run(args) -> int:
-    from ..bake import bake, write_bake
+    from ..bake import bake
+    from ..bakedir import write_bake
 
     from ..imaging.io import check_output_dir, json_text
 

@@ -69,20 +69,6 @@ def settings_from_args(args):
     return settings
 
 
-def recorded_sun_angle(bake_dir) -> float | None:
-    """The --sun-angle (degrees) the bake in bake_dir was made with (its bake.json), or None."""
-    from ..imaging.io import read_bytes
-
-    path = Path(bake_dir) / "bake.json"
-    try:
-        angle = json.loads(read_bytes(path))["settings"].get("sun_angle")
-    except (ValueError, KeyError, TypeError, AttributeError):
-        raise PatchlightError(f"{path}: not a bake summary (no settings in it)") from None
-    if angle is not None and not (isinstance(angle, (int, float)) and 0 <= angle < 90):
-        raise PatchlightError(f"{path}: sun_angle {angle!r} is not an angle in 0..90 degrees")
-    return angle
-
-
 def bake_density(args, scene) -> float:
     """The lightmap density for baking `scene` here: --texels-per-unit, else DENSE_TEXELS_PER_UNIT
     lowered so the level's width spans LEVEL_TEXELS texels."""
@@ -102,7 +88,8 @@ def run(args) -> int:
     from ..config import BakeSettings
     from ..ground.groundmap import make_groundmap, plan_groundmap, write_groundmap
     from ..imaging.io import check_output_dir
-    from ..solved import SolvedScene, is_bake_dir, load_solved
+    from ..bakedir import is_bake_dir, recorded_sun_angle
+    from ..solved import SolvedScene, load_solved
 
     settings = settings_from_args(args)
     check_output_dir(args.output)

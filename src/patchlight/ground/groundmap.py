@@ -31,11 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import bakedir
 from ..errors import PatchlightError
 from ..rays.tracer import Tracer
 from ..scene.model import Scene
 from ..shading.hemisphere_radiosity import OFFSET_MODES
-from ..solved import SolvedScene, is_bake_dir
+from ..solved import SolvedScene
 from . import encode as enc
 from ..imaging.io import write_png
 from ..outputs import staged_output
@@ -232,7 +233,7 @@ def make_groundmap(solved: SolvedScene, settings: GroundMapSettings | None = Non
     shadowed = float(np.mean(shadow[covered] < enc.UNSHADOWED))
     path = scene.extras.get("path") if isinstance(scene.extras, dict) else None
     path = car_loop(geometry, area) if path is None else np.asarray(path, np.float64)
-    bake_dir = str(Path(solved.source).resolve()) if is_bake_dir(solved.source) else None
+    bake_dir = str(Path(solved.source).resolve()) if bakedir.is_bake_dir(solved.source) else None
     return GroundMap(encoded, area, settings, np.asarray(sky_light, np.float32), sun_info, shadowed, plan.coverage,
                      excident, unshadowed, shadow, covered, path, seconds, warnings, bake_dir)
 
@@ -277,9 +278,7 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         bake_dir = os.path.relpath(ground_map.bake_dir, out_dir.resolve())
     elif bake_dir is None:
         warnings.append(NO_BAKE)
-    from ..bake import BAKE_STALE, stage_bake
-
-    stale = STALE_FILES + (BAKE_STALE if bake is not None else ())
+    stale = STALE_FILES + (bakedir.STALE if bake is not None else ())
     with staged_output(out_dir, stale=stale) as staging:
         files = {"color": write_map_files(staging, "groundmap", to_bytes(e.color))}
         if e.shadow is not None:
@@ -292,7 +291,7 @@ def write_groundmap(ground_map: GroundMap, out_dir, source: str, bake_dir: str |
         manifest = _manifest(ground_map, source, bake_dir, files, variants, warnings)
         write_manifest(staging, manifest)
         if bake is not None:
-            stage_bake(bake[0], staging, out_dir, bake[1])
+            bakedir.stage_bake(bake[0], staging, out_dir, bake[1])
     return manifest
 
 

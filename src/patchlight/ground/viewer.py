@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import PatchlightError
 from ..scene import is_builtin
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
-from ..solved import is_bake_dir
+from ..bakedir import is_bake_dir
 from .files import MANIFEST, block_compressed, is_groundmap_dir, load_ground_map, read_manifest, read_texels
 
 FOG_START, FOG_END = 0.6, 1.6  # the demo's fog, in units of the map's width

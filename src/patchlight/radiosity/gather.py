@@ -16,11 +16,29 @@ import scipy.sparse as sp
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
 from ..rays.tracer import Tracer
+from ..scene.model import Scene
 from . import _kernels
+from ._kernels import BACK_FACE, LOST, SKY  # what a ray of the item buffer saw, beside a patch id
 from .hemicube import multiplier_map, stratified_directions
 
+FLOAT32_REACH = 1e-5      # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 RAYS_PER_CHUNK = 1 << 16  # one task: ray generation, trace and item buffer on one core
 PROBE_RAYS = 16           # cosine rays that first test whether a patch lies inside geometry
+
+
+def corner_uv1(scene: Scene) -> np.ndarray:
+    """(T, 3, 2) float32 lightmap UVs of every triangle's corners: what the item buffer
+    interpolates at a hit."""
+    return np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
+
+
+def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
+    """(N,) distance to lift ray origins off each patch: a twentieth of its texel, and never
+    less than float32's reach where the patch lies (FLOAT32_REACH of its largest coordinate,
+    over a hundred float32 steps, plus a millionth of the scene's size)."""
+    lo, hi = scene.bounds()
+    reach = FLOAT32_REACH * np.abs(patches.position).max(axis=1) + 1e-6 * float(np.max(hi - lo))
+    return np.maximum(0.05 * patches.size, reach).astype(np.float32)
 
 
 @dataclass
@@ -69,7 +87,7 @@ class Gatherer:
         a cheap look before a patch inside a wall or under an object pays for its gather."""
         def probe(chunk):
             seen, _ = self._see(chunk, self.probe_dirs)
-            return np.mean(seen.reshape(len(chunk), -1) == _kernels.BACK_FACE, axis=1)
+            return np.mean(seen.reshape(len(chunk), -1) == BACK_FACE, axis=1)
 
         parts = self.tracer.map(probe, self._chunks(rows, PROBE_RAYS))
         return np.concatenate(parts) if parts else np.zeros(0)
@@ -115,7 +133,7 @@ class Gatherer:
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
         """One chunk's rows (the unit of work a Ray task runs)."""
         seen, dirs = self._see(rows, self.dirs)
-        sky = seen == _kernels.SKY
+        sky = seen == SKY
         radiance = np.zeros((int(sky.sum()), 3), np.float32)
         if self.sky is not None and len(radiance):
             radiance = self.sky.radiance(dirs[sky]).astype(np.float32)
@@ -123,4 +141,4 @@ class Gatherer:
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
         if progress is not None:
             progress(len(rows))
-        return GatherRows(F, S, back, int(np.count_nonzero(seen == _kernels.LOST)))
+        return GatherRows(F, S, back, int(np.count_nonzero(seen == LOST)))

@@ -45,7 +45,7 @@ REGULARIZATION = 1e-3  # lambda, relative to the mean weight a vertex gets from 
 def vertex_incident(solved: SolvedScene) -> np.ndarray:
     """(V, 3) f32 incident light I at every vertex of the solved scene (module docstring)."""
     from ..atlas.raster import rasterize
-    from ..bake import ray_offsets
+    from ..radiosity.gather import ray_offsets
 
     scene = solved.scene
     at_uv1 = sample_bilinear(solved.lightmap, scene.uv1, wrap="clamp")

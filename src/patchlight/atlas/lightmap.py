@@ -1,0 +1,64 @@
+"""Per-patch values back into a lightmap image: texels inside geometry filled from their valid
+neighbours, charts grown past their borders, seams between charts stitched, and the gathered
+light denoised chart by chart."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..imaging.dilate import dilate
+from .patches import Patches
+
+DILATE_TEXELS = 4  # rings grown past chart borders so bilinear filtering never reads black
+
+
+def valid_texels(patches: Patches, inside: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the texels with light of their own, covered by a patch not inside geometry
+    (inside (N,) bool)."""
+    return (patches.index >= 0) & ~patches.to_image(inside, fill=True)
+
+
+def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """(H, W, 3) lightmap of incident (N, 3): texels of patches inside geometry (inside (N,)
+    bool) next to valid ones filled from them (up to DILATE_TEXELS rings deep, so bilinear
+    filtering at a joint reads no darkness; deeper ones stay black), then grown past chart
+    borders by DILATE_TEXELS rings."""
+    image = patches.to_image(incident.astype(np.float32))
+    covered = patches.index >= 0
+    valid = valid_texels(patches, inside)
+    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=covered)
+    image[covered & ~valid] = 0.0
+    image, _ = dilate(image, covered, texels=DILATE_TEXELS)
+    return image
+
+
+def stitch_seams(scene, patches: Patches, inside: np.ndarray, images: list[np.ndarray]) -> tuple[list, dict]:
+    """The lightmap-space images of `scene` with their UV chart seams stitched
+    (imaging/stitch.py; texels inside geometry (inside (N,) bool) and outside the charts only
+    follow), and the seams' relative differences before and after (median, p90, max over
+    points every half texel) for bake.json."""
+    from ..imaging.stitch import seam_differences, stitch
+    from .seams import seam_edges
+
+    uv_a, uv_b = seam_edges(scene.positions, scene.normals, scene.indices, scene.uv1)
+    valid = valid_texels(patches, inside)
+    stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
+
+    def summary(image):
+        d = seam_differences(image, uv_a, uv_b)
+        return {"median": float(np.median(d)), "p90": float(np.percentile(d, 90)), "max": float(d.max())} if len(d) \
+            else {"median": 0.0, "p90": 0.0, "max": 0.0}
+
+    return stitched, {"edges": len(uv_a), "before": summary(images[0]), "after": summary(stitched[0])}
+
+
+def denoised_incident(patches: Patches, direct: np.ndarray, gathered: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """(N, 3) incident light with only its gathered part denoised (by OIDN, chart by chart):
+    ray-traced direct light and its sharp shadows stay as they are; patches inside geometry
+    (inside (N,) bool) get none."""
+    from ..imaging.denoise import denoise_lightmap
+
+    charts = patches.to_image(np.where(inside, -1, patches.chart).astype(np.int32), fill=-1)
+    clean = denoise_lightmap(patches.to_image(gathered.astype(np.float32)), charts)
+    incident = direct + clean[patches.texel_y, patches.texel_x]
+    incident[inside] = 0.0
+    return incident

@@ -1,0 +1,147 @@
+"""The bake directory: the one owner of its file names and of reading and writing them.
+
+A bake directory (written by `patchlight bake` or `write_bake`) holds
+
+    lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0
+    scene.glb       the scene with its lightmap UVs in TEXCOORD_1 and the RGBM lightmap
+    lightmap.png    the lightmap exposed for display (sRGB)
+    adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
+    texels.npz      every pass and the per-texel arrays the viewer reads (its format: texels.py)
+    pass_NN.png     the lightmap after each pass (--save-passes)
+    lightmap_sh.exr or lightmap_dir.exr
+                    the directional lightmap, if the bake made one (--directional)
+    bake.json       the summary: settings, sky, statistics, the list of files
+
+written as one set: staged, then swapped in whole (patchlight.outputs.staged_output), so a
+reader never meets a mixture of two bakes; files of an older bake that a new one need not
+write are removed (STALE). A directory is a (complete) bake only with bake.json.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .errors import PatchlightError
+from .texels import TEXELS_FILE
+
+MARKER = "bake.json"          # a directory is a bake only with it
+LIGHTMAP = "lightmap.exr"
+SCENE = "scene.glb"
+LIGHTMAP_PICTURE = "lightmap.png"
+ADAPTIVE_PICTURE = "adaptive.png"
+STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older bake's files a new one need not write
+REQUIRED = (SCENE, LIGHTMAP, MARKER)
+
+
+def pass_picture(number: int) -> str:
+    """The file name of the lightmap after pass `number` (1, 2, ...)."""
+    return f"pass_{number:02d}.png"
+
+
+def is_bake_dir(path: str | Path) -> bool:
+    """A complete bake: scene.glb and lightmap.exr, and bake.json, which is written last. A
+    built-in scene's name is never a bake directory."""
+    from .scene import is_builtin
+
+    p = Path(path)
+    return not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in REQUIRED)
+
+
+def require_bake_dir(path: str | Path) -> Path:
+    """`path` as a complete bake directory, else a one-line PatchlightError."""
+    if not is_bake_dir(path):
+        raise PatchlightError(f"{path}: not a complete bake (needs {', '.join(REQUIRED[:-1])} and {REQUIRED[-1]})")
+    return Path(path)
+
+
+def read_summary(path: str | Path) -> dict:
+    """The bake.json of bake directory `path`, parsed."""
+    from .imaging.io import read_bytes
+
+    where = Path(path) / MARKER
+    try:
+        summary = json.loads(read_bytes(where))
+    except ValueError:
+        summary = None
+    if not isinstance(summary, dict) or not isinstance(summary.get("settings"), dict):
+        raise PatchlightError(f"{where}: not a bake summary (no settings in it)")
+    return summary
+
+
+def recorded_sun_angle(path: str | Path) -> float | None:
+    """The sun angle (degrees) the bake in `path` was made with (bake.json), or None."""
+    angle = read_summary(path)["settings"].get("sun_angle")
+    if angle is not None and not (isinstance(angle, (int, float)) and 0 <= angle < 90):
+        raise PatchlightError(f"{Path(path) / MARKER}: sun_angle {angle!r} is not an angle in 0..90 degrees")
+    return angle
+
+
+def read_lightmap(path: str | Path) -> np.ndarray:
+    """(H, W, 3) float32 incident light of bake directory `path`."""
+    from .imaging.io import read_exr
+
+    return read_exr(Path(path) / LIGHTMAP)
+
+
+def read_bake(path: str | Path) -> tuple:
+    """(scene, lightmap) of bake directory `path` (read_scene, read_lightmap), both of the same
+    bake even when a newer one is swapped in meanwhile."""
+    from .outputs import read_consistently
+
+    return read_consistently(path, lambda: (read_scene(path), read_lightmap(path)))
+
+
+def read_scene(path: str | Path):
+    """The baked scene of bake directory `path` (scene.glb), which must carry lightmap UVs."""
+    from .scene.gltf import load_gltf
+
+    scene = load_gltf(Path(path) / SCENE)
+    if scene.uv1 is None:
+        raise PatchlightError(f"{Path(path) / SCENE}: no TEXCOORD_1 lightmap UVs")
+    return scene
+
+
+def write_bake(result, out_dir: Path, settings) -> dict:
+    """Write a bake (patchlight.bake.BakeResult, made with BakeSettings `settings`) into
+    out_dir as one set (module docstring); returns the summary that bake.json holds."""
+    from .outputs import staged_output
+
+    with staged_output(out_dir, stale=STALE) as staging:
+        return stage_bake(result, staging, out_dir, settings)
+
+
+def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
+    """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
+    stale globs include STALE; returns the summary."""
+    from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
+    from .imaging.io import encode_png, write_bytes, write_exr, write_json, write_png
+    from .radiosity.adaptive import debug_image
+    from .scene.gltf import save_baked_glb
+
+    k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
+    images = {LIGHTMAP_PICTURE: exposed_png_pixels(result.lightmap, k),
+              ADAPTIVE_PICTURE: debug_image(result.patches, result.status)}
+    if settings.save_passes:
+        images.update({pass_picture(i): exposed_png_pixels(image, k)
+                       for i, image in enumerate(result.pass_images(), start=1)})
+    value_range = float(max(1.0, result.lightmap.max()))
+    meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
+            "threeLightMapIntensity": float(np.pi), "exposure": k}
+    extra = [] if result.directional is None else [result.directional.file_name]
+    names = sorted([LIGHTMAP, SCENE, TEXELS_FILE, MARKER, *images, *extra])
+    sky = result.scene.sky
+    summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
+               "sky": None if sky is None else sky.to_json(),
+               **result.stats, "files": names}
+    write_exr(staging / LIGHTMAP, result.lightmap)
+    if result.directional is not None:
+        result.directional.save(staging)
+    write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
+    for name, pixels in images.items():
+        write_png(staging / name, pixels)
+    save_baked_glb(result.scene, staging / SCENE, encode_png(rgbm_encode(result.lightmap, value_range)), meta,
+                   folder=out_dir)
+    write_json(staging / MARKER, summary)
+    return summary

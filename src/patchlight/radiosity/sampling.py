@@ -1,0 +1,60 @@
+"""The adaptive sampler's driver: which patches the bake gathers, run after run.
+
+Gather every 4th texel; then, for each run of the sampler (first at settings.first_accuracy,
+then at settings.accuracy, adaptive.py), solve to a warm start and let each of the sampler's
+steps decide which texels it must gather. Patches found inside geometry (most of their
+probe rays, or of their gather rays, on back faces) are marked INSIDE and get no light.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..atlas.patches import Patches
+from ..config import BakeSettings
+from ..progress import Progress
+from . import adaptive
+from .solve import FormFactors, solve
+
+INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
+PROBE_BACK_FRACTION = 0.7   # ... and one whose 16 probe rays are 12 or more on back faces needs
+                            # no gather to tell (the gather decides the borderline rest)
+REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
+REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
+REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
+
+
+def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
+                    progress: Progress):
+    """Run the adaptive sampler, first at settings.first_accuracy, then at settings.accuracy
+    (adaptive.py); returns (status, order): the sampler's interpolation order."""
+    n = len(patches)
+    status = np.zeros(n, np.int8)
+    if settings.adaptive:
+        grid, phases = adaptive.sampler_plan(patches)
+    else:
+        grid, phases = np.arange(n), []
+    order = adaptive.flatten(phases)
+    with progress.stage("gather", total=n) as advance:
+        _compute(ff, grid, status, advance)
+        B = None
+        for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
+            adaptive.reopen(status)
+            for k, phase in enumerate(phases):
+                passes = REFINE_FIRST_PASSES if k == 0 else REFINE_PASSES
+                solution = solve(ff, direct, patches.rho, patches.emission, status, order,
+                                 passes, max(settings.tolerance, REFINE_TOLERANCE), B)
+                B, G = solution.excident, solution.gathered
+                for step in phase:
+                    _compute(ff, adaptive.decide(step, status, G, accuracy), status, advance)
+    return status, order
+
+
+def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
+    """Gather patches `rows`, but for those a probe or their own gather finds inside geometry."""
+    inside = ff.probe_inside(rows, PROBE_BACK_FRACTION)
+    status[rows[inside]] = adaptive.INSIDE
+    advance(int(inside.sum()))
+    rows = rows[~inside]
+    status[rows] = adaptive.COMPUTED
+    back = ff.add(rows.astype(np.int64), progress=advance)
+    status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
