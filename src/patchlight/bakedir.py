@@ -4,6 +4,9 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
 
     lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0
     scene.glb       the scene with its lightmap UVs in TEXCOORD_1 and the RGBM lightmap
+    lightmap_sh.exr or lightmap_dir.exr
+                    the directional lightmap, if the bake made one (shading.directional:
+                    layers L0, L1x, L1y, L1z of RGB, or the dominant direction as RGB)
     lightmap.png    the lightmap exposed for display (sRGB)
     adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
     texels.npz      every pass and the per-texel arrays the viewer reads (its format: texels.py)
@@ -31,7 +34,8 @@ LIGHTMAP = "lightmap.exr"
 SCENE = "scene.glb"
 LIGHTMAP_PICTURE = "lightmap.png"
 ADAPTIVE_PICTURE = "adaptive.png"
-STALE = ("pass_*.png", "lightmap_sh.exr", "lightmap_dir.exr")  # an older bake's files a new one need not write
+DIRECTIONAL = {"sh": "lightmap_sh.exr", "dominant": "lightmap_dir.exr"}  # by DirectionalLightmap.mode
+STALE = ("pass_*.png", *DIRECTIONAL.values())  # an older bake's files a new one need not write
 REQUIRED = (SCENE, LIGHTMAP, MARKER)
 
 
@@ -103,6 +107,38 @@ def read_scene(path: str | Path):
     return scene
 
 
+def read_directional(path: str | Path):
+    """The directional lightmap (shading.directional.DirectionalLightmap) of bake directory
+    `path`, or None when it has none."""
+    from .imaging.io import read_exr_layers
+    from .shading.directional import DirectionalLightmap
+
+    for mode, name in DIRECTIONAL.items():
+        if (Path(path) / name).exists():
+            return DirectionalLightmap(mode, np.stack(read_exr_layers(Path(path) / name, _layers(mode))))
+    return None
+
+
+def write_directional(folder: Path, directional) -> None:
+    """Write a DirectionalLightmap into `folder` (a bake's staging directory)."""
+    from .imaging.io import write_exr_layers
+
+    write_exr_layers(Path(folder) / DIRECTIONAL[directional.mode], dict(zip(_layers(directional.mode), directional.maps)))
+
+
+def _layers(mode: str) -> tuple[str, ...]:
+    from .shading.directional import SH_LAYERS
+
+    return SH_LAYERS if mode == "sh" else ("",)
+
+
+def pictures(path: str | Path) -> list[str]:
+    """File names of the bake's lightmap-space pictures: lightmap first, then the passes, adaptive."""
+    names = [p.name for p in Path(path).iterdir() if p.is_file() and _PICTURE.match(p.name)]
+    order = {LIGHTMAP_PICTURE: 0, ADAPTIVE_PICTURE: 2}
+    return sorted(names, key=lambda n: (order.get(n, 1), n))
+
+
 def write_bake(result, out_dir: Path, settings) -> dict:
     """Write a bake (patchlight.bake.BakeResult, made with BakeSettings `settings`) into
     out_dir as one set (module docstring); returns the summary that bake.json holds."""
@@ -129,7 +165,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     value_range = float(max(1.0, result.lightmap.max()))
     meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
             "threeLightMapIntensity": float(np.pi), "exposure": k}
-    extra = [] if result.directional is None else [result.directional.file_name]
+    extra = [] if result.directional is None else [DIRECTIONAL[result.directional.mode]]
     names = sorted([LIGHTMAP, SCENE, TEXELS_FILE, MARKER, *images, *extra])
     sky = result.scene.sky
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
@@ -137,7 +173,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
                **result.stats, "files": names}
     write_exr(staging / LIGHTMAP, result.lightmap)
     if result.directional is not None:
-        result.directional.save(staging)
+        write_directional(staging, result.directional)
     write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
     for name, pixels in images.items():
         write_png(staging / name, pixels)

@@ -69,12 +69,14 @@ def test_a_tilted_normal_under_a_sun_follows_the_l1_cosine_and_the_dominant_dire
 
 
 def test_files_round_trip(tmp_path):
+    from patchlight.bakedir import read_directional, write_directional
+
     rng = np.random.default_rng(3)
     for mode, k in (("sh", 4), ("dominant", 1)):
         maps = rng.normal(size=(k, 5, 7, 3)).astype(np.float32)
         folder = tmp_path / mode
         folder.mkdir()
-        DirectionalLightmap(mode, maps).save(folder)
-        loaded = DirectionalLightmap.load(folder)
+        write_directional(folder, DirectionalLightmap(mode, maps))
+        loaded = read_directional(folder)
         assert loaded.mode == mode and np.array_equal(loaded.maps, maps)
-    assert DirectionalLightmap.load(tmp_path) is None
+    assert read_directional(tmp_path) is None

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bakedir import read_directional
 from ..errors import PatchlightError
 from ..scene.model import Scene
 from ..shading.directional import DirectionalLightmap
@@ -53,7 +54,7 @@ def load_target(spec: str) -> Target:
     if not is_builtin(spec) and Path(spec).is_dir():
         solved = load_solved(spec)  # a complete bake, else its one-line error
         target = Target.from_scene(solved.scene, solved.lightmap, Path(spec).resolve())
-        target.directional = DirectionalLightmap.load(target.bake_dir)
+        target.directional = read_directional(target.bake_dir)
         target.texels = read_bake_texels(spec)
         if target.texels is not None and target.texels.status.shape != solved.lightmap.shape[:2]:
             raise PatchlightError(f"{spec}: texels.npz and lightmap.exr differ in size (a mixture of two bakes)")

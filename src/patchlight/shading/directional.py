@@ -1,4 +1,4 @@
-"""Directional lightmaps: what a texel stores beside the incident light I, its files, and the
+"""Directional lightmaps: what a texel stores beside the incident light I, and the
 `lightmap-directional` model's evaluation (the NumPy twin of lightmap_directional.glsl).
 
 Two modes (`bake --directional`):
@@ -8,10 +8,10 @@ Two modes (`bake --directional`):
   Y00 = 1 / (2 sqrt(pi)), Y1 = sqrt(3 / (4 pi)) (x, y, z) in world axes. Their
   clamped-cosine convolution gives the incident light (our I, irradiance / pi) a normal n
   sees: sh(n) = Y00 c0 + (2/3) Y1(n) . c1 (Ramamoorthi and Hanrahan's A0 = pi, A1 = 2 pi / 3,
-  divided by pi). Stored as `lightmap_sh.exr`, layers L0, L1x, L1y, L1z, each R, G, B.
+  divided by pi). Stored as layers L0, L1x, L1y, L1z, each R, G, B (files: patchlight.bakedir).
 - "dominant": the luminance-weighted mean direction the light arrives from, a vector whose
   length is its share (1: all light from one direction, 0: evenly spread), as Unity's
-  directional mode. Stored as `lightmap_dir.exr` (RGB = x, y, z).
+  directional mode. Stored as RGB = x, y, z.
 
 The model keeps the plain lightmap exactly where the normal is the surface's own normal N0 and
 redistributes it elsewhere: sh: I x max(sh(n), 0) / sh(N0); dominant: I x (0.5 + 0.5 n.d) /
@@ -24,7 +24,6 @@ as a light of strength share x I, Blinn-Phong, limited by the gloss.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -37,7 +36,6 @@ MODES = DIRECTIONAL_MODES
 Y00 = 0.28209479177387814  # 1 / (2 sqrt(pi))
 Y1 = 0.4886025119029199    # sqrt(3 / (4 pi))
 SH_LAYERS = ("L0", "L1x", "L1y", "L1z")
-FILES = {"sh": "lightmap_sh.exr", "dominant": "lightmap_dir.exr"}
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)
 FLOOR = 1e-6  # the smallest denominator of a rebalance, as the shader's
 
@@ -54,28 +52,6 @@ class DirectionalLightmap:
         if self.mode not in MODES:
             raise PatchlightError(f"--directional {self.mode}: choose sh or dominant")
         self.maps = np.asarray(self.maps, np.float32)
-
-    @property
-    def file_name(self) -> str:
-        return FILES[self.mode]
-
-    def save(self, folder: Path) -> None:
-        from ..imaging.io import write_exr_layers
-
-        names = SH_LAYERS if self.mode == "sh" else ("",)
-        write_exr_layers(Path(folder) / FILES[self.mode], dict(zip(names, self.maps)))
-
-    @classmethod
-    def load(cls, folder: Path) -> "DirectionalLightmap | None":
-        """The bake directory's directional lightmap, or None when it has none."""
-        from ..imaging.io import read_exr_layers
-
-        for mode in MODES:
-            path = Path(folder) / FILES[mode]
-            if path.exists():
-                names = SH_LAYERS if mode == "sh" else ("",)
-                return cls(mode, np.stack(read_exr_layers(path, names)))
-        return None
 
     def texels(self, uv1: np.ndarray) -> np.ndarray:
         """(K, N, 3) the maps at lightmap UVs uv1 (N, 2), bilinear, edges clamped (as the lightmap)."""
