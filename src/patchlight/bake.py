@@ -11,7 +11,7 @@ import time
 from dataclasses import dataclass, field
 import numpy as np
 
-from .atlas.lightmap import denoised_incident, fill_lightmap, stitch_seams
+from .atlas.lightmap import denoised_incident, fill_lightmap, stitch_seams, valid_texels
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
@@ -55,6 +55,11 @@ class BakeResult:
         return Texels(np.stack(self.pass_images()).astype(np.float16), p.to_image(self.status),
                       p.to_image(p.chart, fill=-1), p.to_image(p.rho), p.to_image(p.emission),
                       p.to_image(self.solution.excident.astype(np.float32)))
+
+    @property
+    def valid(self) -> np.ndarray:
+        """(H, W) bool: the lightmap's texels with light of their own (not inside geometry)."""
+        return valid_texels(self.patches, self.status == adaptive.INSIDE)
 
 
 def _check_scene(scene: Scene) -> None:

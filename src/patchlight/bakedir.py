@@ -2,7 +2,9 @@
 
 A bake directory (written by `patchlight bake` or `write_bake`) holds
 
-    lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0
+    lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0; its alpha channel the
+                    validity: 1 for texels with light of their own (a patch on a visible
+                    surface, computed or interpolated), 0 inside geometry and in the padding
     scene.glb       the scene with its lightmap UVs in TEXCOORD_1 and the RGBM lightmap
     lightmap_sh.exr or lightmap_dir.exr
                     the directional lightmap, if the bake made one (shading.directional:
@@ -90,11 +92,20 @@ def read_lightmap(path: str | Path) -> np.ndarray:
 
 
 def read_bake(path: str | Path) -> tuple:
-    """(scene, lightmap) of bake directory `path` (read_scene, read_lightmap), both of the same
-    bake even when a newer one is swapped in meanwhile."""
+    """(scene, lightmap, valid) of bake directory `path` (read_scene, read_lightmap,
+    read_validity), all of the same bake even when a newer one is swapped in meanwhile."""
     from .outputs import read_consistently
 
-    return read_consistently(path, lambda: (read_scene(path), read_lightmap(path)))
+    return read_consistently(path, lambda: (read_scene(path), read_lightmap(path), read_validity(path)))
+
+
+def read_validity(path: str | Path) -> np.ndarray | None:
+    """(H, W) bool of bake directory `path`: the texels with light of their own (lightmap.exr's
+    alpha), or None for a bake written without it."""
+    from .imaging.io import read_exr_alpha
+
+    alpha = read_exr_alpha(Path(path) / LIGHTMAP)
+    return None if alpha is None else alpha > 0.5
 
 
 def read_scene(path: str | Path):
@@ -132,13 +143,6 @@ def _layers(mode: str) -> tuple[str, ...]:
     return SH_LAYERS if mode == "sh" else ("",)
 
 
-def pictures(path: str | Path) -> list[str]:
-    """File names of the bake's lightmap-space pictures: lightmap first, then the passes, adaptive."""
-    names = [p.name for p in Path(path).iterdir() if p.is_file() and _PICTURE.match(p.name)]
-    order = {LIGHTMAP_PICTURE: 0, ADAPTIVE_PICTURE: 2}
-    return sorted(names, key=lambda n: (order.get(n, 1), n))
-
-
 def write_bake(result, out_dir: Path, settings) -> dict:
     """Write a bake (patchlight.bake.BakeResult, made with BakeSettings `settings`) into
     out_dir as one set (module docstring); returns the summary that bake.json holds."""
@@ -171,7 +175,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
                **result.stats, "files": names}
-    write_exr(staging / LIGHTMAP, result.lightmap)
+    write_exr(staging / LIGHTMAP, result.lightmap, alpha=result.valid)
     if result.directional is not None:
         write_directional(staging, result.directional)
     write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())

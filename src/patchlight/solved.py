@@ -18,11 +18,19 @@ from .shading.surface import interpolate
 
 @dataclass
 class SolvedScene:
-    """scene (with uv1 lightmap UVs) and lightmap (H, W, 3) f32 incident light I."""
+    """scene (with uv1 lightmap UVs) and lightmap (H, W, 3) f32 incident light I; valid (H, W)
+    bool: the texels with light of their own (the bake's, None when unknown: then every
+    covered texel counts)."""
 
     scene: Scene
     lightmap: np.ndarray
     source: str
+    valid: np.ndarray | None = None
+
+    @classmethod
+    def from_bake(cls, result, source: str) -> "SolvedScene":
+        """The solved scene of a patchlight.bake.BakeResult."""
+        return cls(result.scene, result.lightmap, source, result.valid)
 
     def incident(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(N, 3) incident light I at hit points (triangle, barycentrics u, v), bilinear."""
@@ -77,15 +85,15 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
     from .scene import is_builtin, load_scene
 
     if not is_builtin(spec) and Path(spec).is_dir():  # a bake directory, else its one-line error
-        scene, lightmap = bakedir.read_bake(bakedir.require_bake_dir(spec))
+        scene, lightmap, valid = bakedir.read_bake(bakedir.require_bake_dir(spec))
         if sky is not None:
             scene.sky = sky
-        return SolvedScene(scene, lightmap, str(spec))
+        return SolvedScene(scene, lightmap, str(spec), valid)
     from .bake import bake
 
     scene = load_scene(spec)
     if sky is not None:
         scene.sky = sky
     result = bake(scene, settings or BakeSettings(), quiet=quiet)
-    return SolvedScene(result.scene, result.lightmap, str(spec))
+    return SolvedScene.from_bake(result, str(spec))
 

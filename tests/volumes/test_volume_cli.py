@@ -200,7 +200,7 @@ def test_vertices_under_a_wall_take_the_light_of_the_visible_floor():
     b.quad([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], m, (0, 1, 0))
     b.box((-3, 0, -3), (-0.5, 2, 3), m)
     result = bake(b.scene("under", sky=Sky.uniform((1, 1, 1))), BakeSettings(resolution=64, rays=64))
-    solved = SolvedScene(result.scene, result.lightmap, "under")
+    solved = SolvedScene.from_bake(result, "under")
     scene = solved.scene
     floor = np.unique(scene.indices[np.abs(scene.positions[scene.indices][:, :, 1]).max(axis=1) < 1e-6])
     floor = floor[np.abs(scene.positions[floor, 0]) == 2]  # the floor quad's corners at x = -2 and x = 2
@@ -209,6 +209,30 @@ def test_vertices_under_a_wall_take_the_light_of_the_visible_floor():
     light = vertex_incident(solved)
     assert light[under].min() > 0.3
     assert light[floor].max() < 1.1  # a linear fit of a concave falloff overshoots a little, no more
+
+
+def test_the_bake_directory_keeps_the_inside_mask_vertexbake_uses(tmp_path):
+    """lightmap.exr's alpha is the bake's validity: read back, it equals the texels the bake
+    found with light of their own, and the vertex colours from the directory are the ones
+    from the bake in memory (no ray traced again)."""
+    from patchlight.bake import bake
+    from patchlight.bakedir import write_bake
+    from patchlight.config import BakeSettings
+    from patchlight.scene import SceneBuilder
+    from patchlight.solved import SolvedScene
+
+    b = SceneBuilder()
+    m = b.material("grey", (0.5, 0.5, 0.5))
+    b.quad([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], m, (0, 1, 0))
+    b.box((-3, 0, -3), (-0.5, 2, 3), m)
+    settings = BakeSettings(resolution=32, rays=16)
+    result = bake(b.scene("under", sky=Sky.uniform((1, 1, 1))), settings)
+    assert 0 < result.valid.sum() < (result.patches.index >= 0).sum()  # some texels lie inside the box
+    write_bake(result, tmp_path / "under", settings)
+    solved = load_solved(tmp_path / "under")
+    np.testing.assert_array_equal(solved.valid, result.valid)
+    np.testing.assert_allclose(vertex_incident(solved), vertex_incident(SolvedScene.from_bake(result, "under")),
+                               rtol=1e-6, atol=1e-7)
 
 
 def test_volume_settings_refuse_a_seed_numpy_would_choke_on():

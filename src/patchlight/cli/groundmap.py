@@ -109,7 +109,7 @@ def run(args) -> int:
         bake_settings.validate()
         plan = plan_groundmap(scene, settings)  # refuses a map it cannot make before the bake
         result = bake(scene, bake_settings, quiet=args.quiet or args.json)
-        solved = SolvedScene(result.scene, result.lightmap, str(args.scene))
+        solved = SolvedScene.from_bake(result, str(args.scene))
         made, bake_dir = (result, bake_settings), None
     ground_map = make_groundmap(solved, settings, plan)
     manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir, bake=made)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ..errors import PatchlightError
 from ..shading.models import MODELS
 from .options import add_shading_options, load_target_and_settings, parse_exposure, parse_point, parse_size
 
@@ -67,7 +68,7 @@ def render_patch(args, output: Path, exposure: float | None, started: float) -> 
     from ..imaging.exposure import auto_exposure
     from ..imaging.io import write_exr, write_png
     from ..patchview import PatchViews, parse_texel, patch_picture
-    from ..solved import is_bake_dir
+    from ..bakedir import is_bake_dir
 
     x, y = parse_texel(args.patch)
     if not is_bake_dir(args.target):

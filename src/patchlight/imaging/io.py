@@ -8,6 +8,7 @@ every reader turns a missing, unreadable or corrupt file into `PatchlightError("
 | function            | reads / writes                         | array                          |
 |---------------------|----------------------------------------|--------------------------------|
 | write_exr, read_exr | OpenEXR, float32 R, G, B channels      | (H, W, 3) float32              |
+| read_exr_alpha      | OpenEXR, its A channel if it has one   | (H, W) float32, or None        |
 | write_png           | PNG through Pillow                     | (H, W), (H, W, 3|4) uint8      |
 | read_image          | PNG, JPEG (anything Pillow decodes)    | (H, W, C) float32 in [0, 1]    |
 | write_hdr, read_hdr | Radiance RGBE, RLE or flat scanlines   | (H, W, 3) float32              |
@@ -135,16 +136,18 @@ def read_bytes(path) -> bytes:
 
 # --------------------------------------------------------------------------- OpenEXR
 
-def write_exr(path, rgb: np.ndarray, metadata: dict[str, str] | None = None) -> None:
-    """Write (H, W, 3) linear RGB as a float32, ZIP-compressed EXR; row 0 is the top row.
+def write_exr(path, rgb: np.ndarray, metadata: dict[str, str] | None = None, alpha: np.ndarray | None = None) -> None:
+    """Write (H, W, 3) linear RGB (and an (H, W) alpha channel A, if given) as a float32,
+    ZIP-compressed EXR; row 0 is the top row.
 
     The header records the orientation under `patchlight.orientation`; `metadata` adds
     more string attributes.
     """
-    write_exr_layers(path, {"": rgb}, metadata)
+    write_exr_layers(path, {"": rgb}, metadata, alpha)
 
 
-def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> None:
+def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, str] | None = None,
+                     alpha: np.ndarray | None = None) -> None:
     """Write (H, W, 3) linear RGB layers as one float32 EXR: layer "" as R, G, B, layer "L0" as
     L0.R, L0.G, L0.B (OpenEXR's layer naming); otherwise as `write_exr`."""
     channels = {}
@@ -155,6 +158,10 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
         check_finite(pixels, f"{path} layer {name or 'RGB'}")
         for c, letter in enumerate("RGB"):
             channels[f"{name}.{letter}" if name else letter] = np.ascontiguousarray(pixels[..., c])
+    if alpha is not None:
+        if np.shape(alpha) != pixels.shape[:2]:
+            raise ValueError(f"write_exr: alpha {np.shape(alpha)} does not match the image's {pixels.shape[:2]}")
+        channels["A"] = np.ascontiguousarray(alpha, np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ORIENTATION_KEY: ORIENTATION}
     header.update({str(k): str(v) for k, v in (metadata or {}).items()})
@@ -165,13 +172,17 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
             raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
 
 
-def read_exr(path) -> np.ndarray:
-    """(H, W, 3) float32 from an EXR's R, G, B channels (a Y-only image is repeated in RGB)."""
+def _exr_channels(path) -> dict:
     path = require_file(path)
     try:
-        channels = OpenEXR.File(str(path), separate_channels=True).channels()
+        return OpenEXR.File(str(path), separate_channels=True).channels()
     except RuntimeError as exc:
         raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+
+
+def read_exr(path) -> np.ndarray:
+    """(H, W, 3) float32 from an EXR's R, G, B channels (a Y-only image is repeated in RGB)."""
+    channels = _exr_channels(path)
     if {"R", "G", "B"} <= channels.keys():
         names = ["R", "G", "B"]
     elif "Y" in channels:
@@ -183,11 +194,7 @@ def read_exr(path) -> np.ndarray:
 
 def read_exr_layers(path, names) -> list[np.ndarray]:
     """(H, W, 3) float32 of each named layer of an EXR (`write_exr_layers`; "" = R, G, B)."""
-    path = require_file(path)
-    try:
-        channels = OpenEXR.File(str(path), separate_channels=True).channels()
-    except RuntimeError as exc:
-        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+    channels = _exr_channels(path)
     layers = []
     for name in names:
         keys = [f"{name}.{c}" if name else c for c in "RGB"]
@@ -196,6 +203,12 @@ def read_exr_layers(path, names) -> list[np.ndarray]:
             raise PatchlightError(f"{path}: EXR lacks the channels {', '.join(missing)}")
         layers.append(np.stack([channels[k].pixels.astype(np.float32) for k in keys], axis=-1))
     return layers
+
+
+def read_exr_alpha(path) -> np.ndarray | None:
+    """(H, W) float32 of an EXR's A channel, or None when it has none."""
+    channels = _exr_channels(path)
+    return channels["A"].pixels.astype(np.float32) if "A" in channels else None
 
 
 # --------------------------------------------------------------------------- PNG / JPEG

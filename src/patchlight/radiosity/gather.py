@@ -15,6 +15,7 @@ import scipy.sparse as sp
 
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
+from ..rays.inside import back_share
 from ..rays.tracer import Tracer
 from ..scene.model import Scene
 from . import _kernels
@@ -87,7 +88,7 @@ class Gatherer:
         a cheap look before a patch inside a wall or under an object pays for its gather."""
         def probe(chunk):
             seen, _ = self._see(chunk, self.probe_dirs)
-            return np.mean(seen.reshape(len(chunk), -1) == BACK_FACE, axis=1)
+            return back_share(seen.reshape(len(chunk), -1) == BACK_FACE)
 
         parts = self.tracer.map(probe, self._chunks(rows, PROBE_RAYS))
         return np.concatenate(parts) if parts else np.zeros(0)

@@ -2,8 +2,8 @@
 
 Gather every 4th texel; then, for each run of the sampler (first at settings.first_accuracy,
 then at settings.accuracy, adaptive.py), solve to a warm start and let each of the sampler's
-steps decide which texels it must gather. Patches found inside geometry (most of their
-probe rays, or of their gather rays, on back faces) are marked INSIDE and get no light.
+steps decide which texels it must gather. Patches found inside geometry (rays.inside: by a
+few probe rays first, else by their gather rays) are marked INSIDE and get no light.
 """
 from __future__ import annotations
 
@@ -12,12 +12,10 @@ import numpy as np
 from ..atlas.patches import Patches
 from ..config import BakeSettings
 from ..progress import Progress
+from ..rays.inside import is_inside
 from . import adaptive
 from .solve import FormFactors, solve
 
-INSIDE_BACK_FRACTION = 0.5  # a patch whose rays mostly hit back faces lies inside geometry
-PROBE_BACK_FRACTION = 0.7   # ... and one whose 16 probe rays are 12 or more on back faces needs
-                            # no gather to tell (the gather decides the borderline rest)
 REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
 REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
 REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
@@ -51,10 +49,10 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
 
 def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:
     """Gather patches `rows`, but for those a probe or their own gather finds inside geometry."""
-    inside = ff.probe_inside(rows, PROBE_BACK_FRACTION)
+    inside = is_inside(ff.probe_back_share(rows), "patch probe")
     status[rows[inside]] = adaptive.INSIDE
     advance(int(inside.sum()))
     rows = rows[~inside]
     status[rows] = adaptive.COMPUTED
     back = ff.add(rows.astype(np.int64), progress=advance)
-    status[rows[back > INSIDE_BACK_FRACTION]] = adaptive.INSIDE
+    status[rows[is_inside(back, "patch")]] = adaptive.INSIDE

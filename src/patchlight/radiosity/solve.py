@@ -37,11 +37,11 @@ class FormFactors:
     rays_regathered: int = 0  # and again for every product once F is not kept
     rays_probed: int = 0      # probe rays that looked for patches inside geometry first
 
-    def probe_inside(self, rows: np.ndarray, back_fraction: float) -> np.ndarray:
-        """(R,) bool: the patches of `rows` that a few probe rays find inside geometry (more
-        than back_fraction of them on back faces); they need no gather."""
+    def probe_back_share(self, rows: np.ndarray) -> np.ndarray:
+        """(R,) the share of a few probe rays from each patch of `rows` that meet back faces:
+        patches it puts inside geometry (rays.inside) need no gather."""
         self.rays_probed += len(rows) * len(self.gatherer.probe_dirs)
-        return self.gatherer.probe_back_fraction(rows) > back_fraction
+        return self.gatherer.probe_back_fraction(rows)
 
     def add(self, rows: np.ndarray, progress=None) -> np.ndarray:
         """Gather patches `rows`; returns their share of rays that hit back faces."""

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PatchlightError
+from ..rays.inside import back_share, is_inside
 from ..rays.tracer import Hits, Tracer
 from ..shading.environment import ENV_SIZE, environment_from_sky, light_highlight
 from ..shading.models import LIGHTMAP_MODELS, Fragments, Lighting, MaterialTable, ShadingSettings, light_surface, shade_fragments
@@ -20,9 +21,6 @@ from ..shading.textures import cube_directions
 from .camera import Camera, interior_cameras, overview_camera, scene_camera
 from .target import Target
 
-INSIDE_FRACTION = 0.5  # a point is inside geometry when more than this share of ALL directions from it
-#                        first meet the back of a single-sided surface (inside a closed object: all of
-#                        them; behind one wall of a box: the small solid angle the box covers)
 ENCLOSED_FRACTION = 0.75  # a centre whose probe rays hit this often is in a room (a box open on one side: 5/6)
 PROBE_RAYS = 1024  # rays per probe of a point (inside geometry? enclosed?)
 MAX_PASS_THROUGH = 16  # single-sided back faces one ray may pass through before it stops
@@ -86,18 +84,18 @@ class Renderer:
     def inside_share(self, point) -> float:
         """The share of all directions from `point` (3,) whose first hit is the back of a
         single-sided surface: 1 inside a closed object or a solid wall, small outside."""
-        return float(np.count_nonzero(self._culled(self._probe(point)))) / PROBE_RAYS
+        return float(back_share(self._culled(self._probe(point))))
 
     def is_inside(self, point) -> bool:
         """`point` lies inside geometry: most directions from it meet single-sided back faces.
         The one test for the camera's eye, the environment map's centre and default_camera."""
-        return self.inside_share(point) > INSIDE_FRACTION
+        return bool(is_inside(self.inside_share(point), "point"))
 
     def require_outside(self, point, where: str, remedy: str = "") -> None:
         """PatchlightError (one line, `where` names the point, `remedy` the way out) when
         `point` is inside geometry."""
         share = self.inside_share(point)
-        if share > INSIDE_FRACTION:
+        if is_inside(share, "point"):
             raise PatchlightError(f"{where} is inside geometry: {100 * share:.0f}% of the directions from it "
                                   f"meet the back of a single-sided surface{remedy}")
 
@@ -111,7 +109,7 @@ class Renderer:
         lo, hi = self.target.scene.bounds()
         hits = self._probe(self.center)
         hit_share = np.count_nonzero(hits.tri >= 0) / PROBE_RAYS
-        inside = np.count_nonzero(self._culled(hits)) / PROBE_RAYS > INSIDE_FRACTION
+        inside = is_inside(back_share(self._culled(hits)), "point")
         enclosed = hit_share >= ENCLOSED_FRACTION and not inside
         candidates = (interior_cameras(lo, hi) if enclosed else []) + [overview_camera(lo, hi)]
         for camera in candidates:

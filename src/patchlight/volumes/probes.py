@@ -32,6 +32,7 @@ from ..progress import Progress
 from ..radiosity.direct import direct_light
 from ..radiosity.hemicube import stratified_directions
 from ..rays.hemisphere import hemisphere_rays, row_angles
+from ..rays.inside import is_inside
 from ..rays.tracer import Tracer
 from ..solved import SolvedScene
 from . import _kernels as _volume_kernels
@@ -39,8 +40,6 @@ from .fill import fill_invalid
 from .grid import ProbeGrid
 from .volume import AXIS_VECTORS, LightVolume
 
-INSIDE_BACK_FRACTION = 0.5  # a probe whose rays mostly hit back faces lies inside geometry
-AXIS_BACK_FRACTION = 0.25   # an axis seeing more back faces than this looks into geometry
 T_NEAR = 2e-4               # rays start this far along (x the scene's size): a probe on a face
                             # must not meet that face at t = 0 (Embree starts rays at t = 0)
 OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
@@ -182,8 +181,8 @@ def _fill(grid: ProbeGrid, light, back, open_side) -> tuple[np.ndarray, np.ndarr
     shape = grid.shape
     cube = light.reshape(*shape, 6, 3).transpose(3, 0, 1, 2, 4)
     back = back.reshape(*shape, 6)
-    inside = back.mean(axis=-1) > INSIDE_BACK_FRACTION
-    invalid = inside[None] | (back.transpose(3, 0, 1, 2) > AXIS_BACK_FRACTION)
+    inside = is_inside(back.mean(axis=-1), "probe")
+    invalid = inside[None] | is_inside(back.transpose(3, 0, 1, 2), "probe axis")
     side = open_side.reshape(*shape, 6, 3).sum(axis=-2)
     length = np.linalg.norm(side, axis=-1, keepdims=True)
     side = np.where(length > OPEN_SIDE_MIN, side / np.maximum(length, 1e-12), 0.0)

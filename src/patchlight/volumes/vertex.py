@@ -11,8 +11,9 @@ which keep c0, the lightmap read at their own lightmap UV. So:
 - vertices that lie inside other geometry (a floor running under the walls, common in level
   geometry, where the bake leaves the texels black) take the light the visible part of their
   triangles shows, extrapolated, instead of the black at their corner.
-Patches inside geometry are found as the bake finds them: most of a few gather rays meet
-back faces. No light is gathered anew, so the result carries no extra noise.
+Patches inside geometry are the bake's own (SolvedScene.valid, saved with the lightmap; a
+solved scene that has none counts every covered texel). No ray is traced, so the result
+carries no extra noise.
 
 COLOR_0 = the file's vertex colour (white if none) x (I, 1): a renderer that multiplies the
 base colour by COLOR_0 and lights nothing (glTF's unlit shading, patchlight's `unlit`
@@ -36,24 +37,21 @@ from scipy.sparse.linalg import spsolve
 from ..scene.model import Scene
 from ..shading.textures import sample_bilinear
 from ..solved import SolvedScene
-from .probes import INSIDE_BACK_FRACTION, IncidentGatherer, VolumeSettings
-
-INSIDE_RAYS = 16       # rays per patch to tell patches inside geometry (back faces) from the rest
 REGULARIZATION = 1e-3  # lambda, relative to the mean weight a vertex gets from its patches
 
 
 def vertex_incident(solved: SolvedScene) -> np.ndarray:
     """(V, 3) f32 incident light I at every vertex of the solved scene (module docstring)."""
     from ..atlas.raster import rasterize
-    from ..radiosity.gather import ray_offsets
 
     scene = solved.scene
     at_uv1 = sample_bilinear(solved.lightmap, scene.uv1, wrap="clamp")
     height, width = solved.lightmap.shape[:2]
     patches, _ = rasterize(scene, width, height)
-    gatherer = IncidentGatherer(solved, VolumeSettings(rays=INSIDE_RAYS))
-    _, back, _ = gatherer.trace(patches.position, patches.normal, ray_offsets(scene, patches))
-    rows = np.flatnonzero(back <= INSIDE_BACK_FRACTION)
+    if solved.valid is None:
+        rows = np.arange(len(patches))
+    else:
+        rows = np.flatnonzero(solved.valid[patches.texel_y, patches.texel_x])
     if len(rows) == 0:
         return at_uv1
     triangle = patches.triangle[rows]
