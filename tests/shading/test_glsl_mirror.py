@@ -15,9 +15,11 @@ SHADERS = Path(_shaders_pkg.__path__[0])
 FUNCTION = re.compile(r"^(?:float|vec[234]|void|Incident|Lighting)\s+(\w+)\s*\(", re.M)
 DEFINE = re.compile(r"^#define\s+(\w+)\s+(\S+)", re.M)
 INCLUDE = re.compile(r'^#include\s+"([\w.]+)"', re.M)
-SOURCES = ("hlsl-lighting-models.txt", "lighting-models-for-games.txt", "hemisphere-lighting-with-radiosity-maps.txt",
-           "KHR_lights_punctual", "DESIGN.md", "IEC 61966", "patchlight.imaging",
-           "patchlight.shading.directional")
+# A formula chunk names where its formula comes from: its author, a specification, or a page
+# of this repository (never a file outside it).
+SOURCES = ("Lambert", "Phong", "Blinn", "Frazier", "Ginsburg", "Half-Life 2", "KHR_lights_punctual", "IEC 61966",
+           "docs/architecture.md", "patchlight.bake", "patchlight.ground", "patchlight.imaging",
+           "patchlight.shading.directional", "patchlight.shading.surface")
 
 
 def chunks() -> dict[str, str]:

@@ -1,5 +1,5 @@
-"""Folding static shadows into the ground map: the article's three ways
-(hemisphere-lighting-with-radiosity-maps.txt, "Shadowing").
+"""Folding static shadows into the ground map: three ways:
+separate maps, shadow in alpha, or folded into the colour.
 
 Inputs per texel: the picture B (radiance seen from above, the bake's own shadows in it),
 the unshadowed picture B_u = B + rho (1 - vis) I_sun (the sun's blocked share given back),

@@ -1,4 +1,4 @@
-"""Radiosity ground maps for hemisphere lighting (hemisphere-lighting-with-radiosity-maps.txt):
+"""Radiosity ground maps for hemisphere lighting:
 a top-down picture of the lit level that moving objects look up as their ground colour,
 with static sun shadows folded in.
 

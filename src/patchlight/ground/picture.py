@@ -3,7 +3,7 @@
 One ray per texel centre looks straight down (-Y) at the map geometry (prepare.py): the
 turned-up vertical layer first, then the flat layer (`cast_down`: geometry only, so it runs
 before a bake). A hit shows the light leaving the original surface there, B = rho I + E
-(DESIGN.md units: radiance), read from the bake (`look_down`).
+(radiance), read from the bake (`look_down`).
 
 Shadows: shadow rays from the flat layer's hit towards the sun, against the whole level
 (tree canopies and poles left out of the picture still cast shadows), say how much of the sun
@@ -122,7 +122,7 @@ def sun_shadow(tracer: Tracer, ground: np.ndarray, sun: Light, lift: float, abov
 
     Returns (blocked (H, W, 3), free (3,)): the incident light I the sun would add at each point
     were nothing in its way (0 where there is no point), and the I it gives an unshadowed
-    horizontal patch (DESIGN.md: Es max(0, -d.y) / pi, averaged over the disc)."""
+    horizontal patch (Es max(0, -d.y) / pi, averaged over the disc)."""
     from ..radiosity.direct import direct_light
 
     points = ground.reshape(-1, 3)

@@ -1,5 +1,4 @@
-"""The level as the ground map's camera sees it (hemisphere-lighting-with-radiosity-maps.txt,
-"Making The Map"): polygons too high above the ground are left out, and vertical ones are
+"""The level as the ground map's camera sees it: polygons too high above the ground are left out, and vertical ones are
 turned to face up so that, say, the sides of fences colour the map.
 
 - The ground beneath a point is the lowest upward-facing surface on the vertical line

@@ -1,5 +1,5 @@
-"""The built-in outdoor scene `track`: the ground-map demo of
-hemisphere-lighting-with-radiosity-maps.txt (a race track seen by fast moving cars).
+"""The built-in outdoor scene `track`: the ground-map demo: a race
+track seen by fast moving cars, lit by hemisphere lighting with a radiosity ground map.
 
 A 160 x 160 m grass field (x, z in [-80, 80], +Y up) holding:
 - a closed asphalt loop, 12 m wide: two 80 m straights along x at z = +-25 joined by two

@@ -1,6 +1,5 @@
-// ambient_cube.glsl: light from a baked light volume of ambient cubes
-// (ambient-cube-light-volumes.txt). Each probe of a regular grid holds the incident light I
-// (DESIGN.md units) that a patch facing each of the six axes +X, +Y, +Z, -X, -Y, -Z receives.
+// ambient_cube.glsl: light from a baked light volume of ambient cubes. Each probe of a regular grid holds the incident light I
+// that a patch facing each of the six axes +X, +Y, +Z, -X, -Y, -Z receives.
 // A point finds its grid cell and interpolates each axis trilinearly between the cell's
 // eight probes; the normal then weights the axes. Weighting by saturate(n) and saturate(-n)
 // (the article's first attempt) sums to |nx| + |ny| + |nz|, from 1 on the axes up to sqrt(3)

@@ -1,6 +1,7 @@
-// compose.glsl: the surface's radiance from its colour, emission and light sum.
-//   unlit      the colour map alone (lighting-models-for-games.txt)
-//   lightmap, lightmap-directional   colour x baked I + specular (DESIGN.md: a diffuse surface shows albedo x I)
+// compose.glsl: the surface's radiance from its colour, emission and light sum (each model's
+// composition and why: docs/architecture.md, "The runtime models").
+//   unlit      the colour map alone
+//   lightmap, lightmap-directional   colour x baked I + specular (a diffuse surface shows albedo x I)
 //   envmap     mix(colour x diffuse, env, fresnel) + env.a x reflectivity (envmap.glsl)
 //   hemisphere-radiosity  Listing 1's composition, `baked` = the radiosity R (hemisphere_radiosity.glsl)
 //   the rest   colour x diffuse + specular

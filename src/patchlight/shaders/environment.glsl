@@ -1,5 +1,5 @@
 // environment.glsl: light that does not come from the punctual lights, in incident-light
-// units (DESIGN.md): a constant ambient, the hemisphere's sky and ground, and the
+// units: a constant ambient, the hemisphere's sky and ground, and the
 // environment cube map (RGB radiance, A the specular highlight) of envmap.glsl.
 uniform vec3 ambient_color;
 uniform vec3 sky_color;

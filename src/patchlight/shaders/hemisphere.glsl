@@ -1,4 +1,4 @@
-// hemisphere.glsl: hemisphere lighting (hemisphere-lighting-with-radiosity-maps.txt): sky
+// hemisphere.glsl: hemisphere lighting (docs/architecture.md, "The runtime models"): sky
 // above, ground below, blended by the normal's up component; 0.5 + 0.5 N.y maps N.y in
 // [-1, 1] to a blend weight in [0, 1]. +Y is up.
 vec3 hemisphere_light(vec3 N, vec3 sky, vec3 ground) {

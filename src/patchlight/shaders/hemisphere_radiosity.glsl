@@ -1,5 +1,4 @@
-// hemisphere_radiosity.glsl: hemisphere lighting with a radiosity ground map, composed as
-// hemisphere-lighting-with-radiosity-maps.txt's Listing 1 composes it. The ground map is a
+// hemisphere_radiosity.glsl: hemisphere lighting with a radiosity ground map. The ground map is a
 // top-down picture of the lit level (`patchlight groundmap`, patchlight.ground); moving
 // objects look up the ground below and beside them in it, and the sky above.
 //

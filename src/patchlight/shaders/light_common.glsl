@@ -1,6 +1,6 @@
 // light_common.glsl: what a light delivers to a surface point, and the light uniforms.
 //
-// Units follow DESIGN.md: I is incident light (cosine-weighted mean radiance), so a white
+// Units: I is incident light (cosine-weighted mean radiance), so a white
 // diffuse surface facing the light shows radiance I x N.L. A source of radiant intensity
 // J (W/sr) at distance d gives I = J x falloff / pi; a sun of irradiance E gives I = E / pi.
 

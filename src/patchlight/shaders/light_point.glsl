@@ -1,5 +1,5 @@
-// light_point.glsl: a point light shining equally in all directions
-// (hlsl-lighting-models.txt, "Point Light"), with falloff.glsl's distance falloff.
+// light_point.glsl: a point light shining equally in all directions (KHR_lights_punctual
+// "point"), with falloff.glsl's distance falloff.
 Incident point_light(vec3 position, vec3 intensity, float range, int falloff, vec3 P) {
     vec3 to_light = position - P;
     float d = length(to_light);

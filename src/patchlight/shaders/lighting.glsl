@@ -1,16 +1,17 @@
-// lighting.glsl: each model's light sum at one surface point. The result splits into what
+// lighting.glsl: each model's light sum at one surface point (docs/architecture.md, "The
+// runtime models"). The result splits into what
 // the colour map multiplies (diffuse) and what it does not (specular), plus the envmap's
 // reflection vector and Fresnel weight, so the same sum serves per-pixel lighting (here
 // in the fragment shader) and per-vertex lighting (in the vertex shader, interpolated),
-// as lighting-models-for-games.txt contrasts them.
+// the two classic ways.
 //
 //   ambient      diffuse = A
 //   lambert      diffuse = A + sum I N.L
 //   phong        + specular = sum I (R.V)^n            (uncoloured)
 //   blinn-phong  + specular = sum I (N.H)^n            (uncoloured)
 //   self-shadow  diffuse = A + sum S I N.L, specular = sum S I (R.V)^n, S = saturate(4 N.L)
-//   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) alone: no punctual lights (issue 4's
-//                definition, the hemisphere light of hemisphere-lighting-with-radiosity-maps.txt)
+//   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) alone: no punctual lights (the classic
+//                hemisphere light)
 //   lightmap     specular = sum I (N.H)^n only with LIGHTMAP_SPECULAR (the lightmap has the diffuse)
 //   lightmap-directional  as lightmap; the fragment adds the baked light's own highlight
 //   envmap       diffuse as lambert; reflected = reflect(-V, N); fresnel = k (1 - N.V)

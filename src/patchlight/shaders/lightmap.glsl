@@ -1,4 +1,4 @@
-// lightmap.glsl: the baked incident light I (DESIGN.md) at the lightmap UVs (TEXCOORD_1).
+// lightmap.glsl: the baked incident light I (patchlight.bake) at the lightmap UVs (TEXCOORD_1).
 // The shaded colour of a diffuse surface is albedo x I.
 uniform sampler2D lightmap;
 

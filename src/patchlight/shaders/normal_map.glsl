@@ -1,5 +1,4 @@
-// normal_map.glsl: tangent-space normal mapping (hlsl-lighting-models.txt, "Bump Mapping";
-// lighting-models-for-games.txt, normal maps). The map stores n in [0, 1]; 2 t - 1 expands
+// normal_map.glsl: tangent-space normal mapping (tangents: patchlight.shading.surface). The map stores n in [0, 1]; 2 t - 1 expands
 // it back to [-1, 1]. The frame is the interpolated vertex tangent T made orthogonal to N,
 // B = cross(N, T) x sign(w) as glTF defines it, and N; B points up the image (towards -v).
 

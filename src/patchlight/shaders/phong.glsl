@@ -1,7 +1,5 @@
 // phong.glsl: Phong's specular term (R.V)^n, R the light direction mirrored about the
-// normal, exactly as hlsl-lighting-models.txt's shaders compute it:
-//   diff = saturate(dot(Normal, LightDir)); Reflect = normalize(2 * diff * Normal - LightDir);
-//   specular = pow(saturate(dot(Reflect, ViewDir)), n).
+// normal, computed as R = normalize(2 saturate(N.L) N - L), term saturate(R.V)^n.
 // Where N.L > 0 this is reflect(-L, N); where the light is behind the surface diff is 0 and
 // R = -L, so the term is (-L.V)^n (the self-shadow model's S removes it there).
 // It is white: the caller multiplies by the light, never by the colour map.

@@ -1,7 +1,7 @@
 // surface_fragment.glsl: one pixel of a surface. Per pixel (the default) the light sum is
 // evaluated here with the interpolated normal, flipped on the back of double-sided
 // surfaces and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
-// gloss (hlsl-lighting-models.txt's bump-mapping shader: min(specular, color.w)). The
+// gloss (the specular is limited to min(specular, color.w)). The
 // lightmap-directional model redistributes the baked light for that normal.
 // OVERLAY shows a lightmap-space debug picture instead: with OVERLAY_LIGHT light values
 // (a pass's incident light), exposed like a picture; else display colours as they are

@@ -1,6 +1,6 @@
 // surface_vertex.glsl: world-space position, normal, tangent and UVs for the fragment
 // shader; under PER_VERTEX also the light sum, evaluated here at the vertex and
-// interpolated across the triangle (Gouraud), as lighting-models-for-games.txt describes.
+// interpolated across the triangle (Gouraud).
 // The model matrix is the identity: scenes arrive as one world-space triangle soup.
 #include "surface.glsl"
 

@@ -1,6 +1,6 @@
 """Light from the surroundings for the ambient, hemisphere and envmap models.
 
-- `sky_incident(sky)`: the incident light I (DESIGN.md) of an up-facing and a down-facing patch
+- `sky_incident(sky)`: the incident light I of an up-facing and a down-facing patch
   under the sky: the hemisphere model's sky and ground colours, exact at the two poles. Their
   mean is the ambient colour: the hemisphere term averaged over all normal directions.
 - `environment_from_sky(sky, lights, size)`: the envmap model's cube map: RGB the sky's

@@ -2,7 +2,7 @@
 
 `directional_light`, `point_light`, `spot_light`, `spot_cone`, `inverse_square_falloff`,
 `range_falloff` and `incident_light` mirror the GLSL functions of the same names
-(light_*.glsl, falloff.glsl, lights.glsl). Units (DESIGN.md): a light returns incident light
+(light_*.glsl, falloff.glsl, lights.glsl). Units: a light returns incident light
 I, so a white diffuse surface facing it shows radiance I N.L; radiant intensity J (W/sr)
 gives I = J falloff / pi, a sun of irradiance E gives I = E / pi.
 """

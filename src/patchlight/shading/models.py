@@ -36,7 +36,7 @@ class ShadingSettings:
     """Everything but geometry and textures that decides a shaded pixel.
 
     model: one of MODELS. lights: the punctual lights. ambient, sky, ground: (3,) incident light
-    (DESIGN.md units) of the ambient term and of the hemisphere's up and down poles.
+    of the ambient term and of the hemisphere's up and down poles.
     per_vertex: evaluate the light sum at vertices and interpolate. normal_map: perturb normals
     by the materials' normal maps, with the colour alpha as gloss. lightmap_specular: add the
     lights' Blinn-Phong highlight to the lightmap model. exposure: k of the display curve

@@ -55,13 +55,12 @@ def vertex_tangents(positions: np.ndarray, normals: np.ndarray, uv: np.ndarray, 
     """(V, 4) tangents from the UVs, for files that carry none, weighted as MikkTSpace (glTF's
     tangent convention) weights them.
 
-    Each triangle's dP/du and dP/dv (hlsl-lighting-models.txt, "Bump Mapping"), made unit
-    and projected into the plane of each corner's normal, are summed at its corners weighted
-    by the corner's angle; the sum of dP/du is made orthogonal to the normal (Gram-Schmidt),
-    and w = +-1 records whether cross(N, T) points up the image (towards -v, glTF's
-    bitangent) or down. MikkTSpace also splits a vertex whose triangles disagree on w; the
-    vertices here are fixed, so the summed bitangent decides. Vertices without UV gradient
-    get any tangent perpendicular to their normal."""
+    Each triangle's dP/du and dP/dv, made unit and projected into the plane of each corner's
+    normal, are summed at its corners weighted by the corner's angle; the sum of dP/du is made
+    orthogonal to the normal (Gram-Schmidt), and w = +-1 records whether cross(N, T) points up
+    the image (towards -v, glTF's bitangent) or down. MikkTSpace also splits a vertex whose
+    triangles disagree on w; the vertices here are fixed, so the summed bitangent decides.
+    Vertices without UV gradient get any tangent perpendicular to their normal."""
     p = np.asarray(positions, np.float64)[indices]
     t = np.asarray(uv, np.float64)[indices]
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]

@@ -1,6 +1,6 @@
 """Baking a light volume: each probe of a grid gathers the incident light from six axes.
 
-For each axis a, a probe's value is what a small patch there facing a receives (DESIGN.md's
+For each axis a, a probe's value is what a small patch there facing a receives (the
 incident light I): stratified cosine-weighted rays about a see the solved scene's excident
 light B = rho I + E where they hit a front face, the sky's radiance where they escape, and
 nothing where they hit a back face; the sun, point and spot lights are added by shadow rays

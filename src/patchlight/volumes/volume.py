@@ -1,6 +1,6 @@
 """A light volume: a grid of ambient cubes, each the incident light from six axis directions.
 
-The value of axis a at a probe is the incident light I (DESIGN.md: cosine-weighted mean
+The value of axis a at a probe is the incident light I (cosine-weighted mean
 radiance) that a small patch at the probe facing along a would receive: a uniform
 environment of radiance L gives L on all six axes. Axis order follows the article's two
 vectors posLum and negLum: +X, +Y, +Z, then -X, -Y, -Z.
