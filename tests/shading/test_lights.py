@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from patchlight.cli.options import parse_light_spec
+from patchlight.cli.values import parse_light_spec
 from patchlight.errors import PatchlightError
 from patchlight.scene.model import Light
 from patchlight.shading.lights import (directional_light, from_scene_light, incident_light,

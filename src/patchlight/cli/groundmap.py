@@ -20,6 +20,7 @@ from ..errors import PatchlightError
 from ..scene import is_builtin
 from .options import add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
+from .values import parse_area
 
 DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
 LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this many texels
@@ -59,7 +60,6 @@ def register(sub) -> None:
 
 def settings_from_args(args):
     from ..ground.groundmap import GroundMapSettings
-    from ..ground.mapping import parse_area
 
     settings = GroundMapSettings(size=args.size, area=parse_area(args.area) if args.area else None,
                                  max_height=args.max_height, noise=args.noise, shadows=args.shadows,

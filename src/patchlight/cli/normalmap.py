@@ -8,8 +8,8 @@ import time
 from pathlib import Path
 
 from ..errors import PatchlightError
-from .options import parse_size
 from .parser import finite_number
+from .values import parse_size
 
 
 def register(sub) -> None:

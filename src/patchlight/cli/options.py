@@ -1,15 +1,8 @@
-"""What the subcommands share: option groups, parsers of flag values, and loading what the
-flags name.
-
-Light spec syntax of `--light` (angles in degrees, colours linear RGB, intensity radiometric):
-    dir:DX,DY,DZ:R,G,B:E                                  direction of travel, irradiance W/m^2
-    point:X,Y,Z:R,G,B:J[:RANGE]                            W/sr, range in metres
-    spot:X,Y,Z:DX,DY,DZ:R,G,B:J:OUTER[:INNER[:RANGE]]      cone half-angles, inner defaults to 0
-"""
+"""What the subcommands share: option groups, and loading what the flags name (the parsers of
+flag values: values.py)."""
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 import numpy as np
@@ -17,37 +10,10 @@ import numpy as np
 from ..config import FALLOFFS, BakeSettings
 from ..errors import PatchlightError
 from ..shading.hemisphere_radiosity import OFFSET_MODES
-from ..scene.model import MAX_LIGHT
-from ..shading.lights import FLOAT32_MAX
 from .parser import finite_number
+from .values import parse_light_spec, parse_rgb
 
 DEFAULTS = BakeSettings()
-MAX_SIZE = 16384  # --size: largest picture width or height
-MAX_PIXELS = 1 << 24  # 4096 x 4096: the renderer keeps ~100 bytes per pixel, several times over
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """'WxH' -> (width, height), each in 1..MAX_SIZE, at most MAX_PIXELS in all."""
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected WxH, e.g. 1024x768, got {text!r}") from None
-    if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
-        raise argparse.ArgumentTypeError(f"{text}: width and height must lie in 1..{MAX_SIZE}")
-    if width * height > MAX_PIXELS:
-        raise argparse.ArgumentTypeError(f"{text}: more than {MAX_PIXELS} pixels (4096x4096)")
-    return width, height
-
-
-def parse_rgb(text: str) -> tuple[float, float, float]:
-    """'R,G,B' -> three floats in 0..MAX_LIGHT, or a one-line error."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(0 <= v <= MAX_LIGHT for v in values):
-        raise argparse.ArgumentTypeError(f"expected R,G,B (three numbers in 0..{MAX_LIGHT:g}), got {text!r}")
-    return values
 
 
 def add_scene_options(p: argparse.ArgumentParser) -> None:
@@ -158,29 +124,6 @@ def use_normal_map(target, path: Path) -> None:
         material.normal_texture = np.ascontiguousarray(image[..., :3])
 
 
-def parse_point(text: str, where: str):
-    try:
-        point = np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        point = np.zeros(0)
-    if point.shape != (3,) or not np.all(np.isfinite(point)):
-        raise PatchlightError(f"{where} {text}: expected X,Y,Z")
-    return point
-
-
-def parse_exposure(text: str) -> float | None:
-    """None for auto, else a positive float."""
-    if text == "auto":
-        return None
-    try:
-        k = float(text)
-    except ValueError:
-        k = float("nan")
-    if not (k > 0 and k < float("inf")):
-        raise PatchlightError(f"--exposure {text}: expected a positive number or auto")
-    return k
-
-
 def load_solved_from_args(args, quiet: bool):
     """The solved scene the arguments name, baked now (default settings, the flags' falloff
     and sun angle) when it is not a bake directory."""
@@ -191,56 +134,3 @@ def load_solved_from_args(args, quiet: bool):
     return load_solved(args.scene, settings, sky=sky_from_args(args), quiet=quiet)
 
 
-def parse_light_spec(spec: str, falloff: str = "inverse-square"):
-    """A patchlight.scene.model.Light from a `--light` spec (syntax in the module docstring)."""
-    from ..scene.model import Light
-
-    kind, *fields = spec.split(":")
-    shapes = {"dir": (3, 3, 1), "point": (3, 3, 1, 1), "spot": (3, 3, 3, 1, 1, 1, 1)}
-    required = {"dir": 3, "point": 3, "spot": 5}
-    if kind not in shapes:
-        raise PatchlightError(f"--light {spec}: unknown light kind {kind!r} (dir, point or spot)")
-    if not required[kind] <= len(fields) <= len(shapes[kind]):
-        raise PatchlightError(f"--light {spec}: {kind} takes {required[kind]} to {len(shapes[kind])} "
-                              f"':'-separated fields, got {len(fields)}")
-    values = [_numbers(f, n, spec) for f, n in zip(fields, shapes[kind])]
-    first = 2 if kind == "spot" else 1  # the colour field; the intensity follows it
-    color, (strength,) = values[first], values[first + 1]
-    if min(color) < 0 or strength < 0:
-        raise PatchlightError(f"--light {spec}: colour and intensity must not be negative")
-    if len(values) == len(shapes[kind]) and kind != "dir" and not values[-1][0] > 0:
-        raise PatchlightError(f"--light {spec}: the range must be > 0 metres (leave it out for none)")
-    if kind == "dir":
-        direction, color, (irradiance,) = values
-        return Light("directional", np.array(color, np.float32), irradiance,
-                     direction=_unit(direction, spec), name=spec)
-    if kind == "point":
-        position, color, (intensity,), *rest = values
-        return Light("point", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
-                     range=rest[0][0] if rest else None, name=spec)
-    position, direction, color, (intensity,), (outer,), *rest = values
-    inner = rest[0][0] if rest else 0.0
-    if not 0 <= inner <= outer <= 90:
-        raise PatchlightError(f"--light {spec}: spot angles need 0 <= inner <= outer <= 90 degrees")
-    return Light("spot", np.array(color, np.float32), intensity, position=np.array(position, np.float32),
-                 direction=_unit(direction, spec), range=rest[1][0] if len(rest) > 1 else None,
-                 inner_cone=math.radians(inner), outer_cone=math.radians(outer), name=spec)
-
-
-def _numbers(field: str, count: int, spec: str) -> list[float]:
-    try:
-        values = [float(x) for x in field.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != count or not all(abs(v) <= FLOAT32_MAX for v in values):  # NaN fails too
-        raise PatchlightError(f"--light {spec}: {field!r} should be {count} comma-separated numbers "
-                              f"(each within float32's range)")
-    return values
-
-
-def _unit(v, spec: str) -> np.ndarray:
-    a = np.asarray(v, np.float64)
-    length = float(np.linalg.norm(a))
-    if length == 0:
-        raise PatchlightError(f"--light {spec}: direction must not be zero")
-    return (a / length).astype(np.float32)

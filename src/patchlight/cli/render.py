@@ -8,7 +8,8 @@ from pathlib import Path
 
 from ..errors import PatchlightError
 from ..shading.models import MODELS
-from .options import add_shading_options, load_target_and_settings, parse_exposure, parse_point, parse_size
+from .options import add_shading_options, load_target_and_settings
+from .values import parse_camera, parse_exposure, parse_point, parse_size
 
 
 def register(sub) -> None:
@@ -35,7 +36,6 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..imaging.exposure import auto_exposure
-    from ..render.camera import parse_camera
     from ..render.output import check_output, write_render
     from ..render.renderer import Renderer
 

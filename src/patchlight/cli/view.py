@@ -10,7 +10,8 @@ import os
 import sys
 
 from ..shading.models import MODELS
-from .options import add_shading_options, load_target_and_settings, parse_exposure, parse_point
+from .options import add_shading_options, load_target_and_settings
+from .values import parse_exposure, parse_point
 
 
 def port_number(text: str) -> int:

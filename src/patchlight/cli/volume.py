@@ -9,24 +9,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..errors import PatchlightError
 from ..scene import is_builtin
 from ..volumes.probes import MAX_SEED, VolumeSettings
 from .options import add_scene_options, load_solved_from_args
 from .parser import finite_number, writes_output
+from .values import parse_bounds, parse_dims
 
 DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
 STATS = "volume.json"
-
-
-def parse_dims(text: str) -> tuple[int, int, int]:
-    try:
-        dims = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        dims = ()
-    if len(dims) != 3 or min(dims) < 1:
-        raise PatchlightError(f"--dims {text}: expected NX,NY,NZ (three whole numbers >= 1)")
-    return dims
 
 
 def register(sub) -> None:
@@ -51,7 +41,7 @@ def register(sub) -> None:
 
 
 def choose_grid(args, scene):
-    from ..volumes.grid import check_overlap, grid_over, parse_bounds
+    from ..volumes.grid import check_overlap, grid_over
 
     scene_lo, scene_hi = scene.bounds()
     if args.bounds:

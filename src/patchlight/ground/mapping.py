@@ -65,20 +65,6 @@ def map_uv(area: GroundArea, points: np.ndarray) -> np.ndarray:
     return np.stack([h @ area.U, h @ area.V], axis=1)
 
 
-def parse_area(text: str) -> GroundArea:
-    """'X0,Z0,X1,Z1' (metres) -> GroundArea, or a one-line PatchlightError."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 4 or not all(np.isfinite(values)):
-        raise PatchlightError(f"--area {text}: expected X0,Z0,X1,Z1 (four numbers, metres)")
-    x0, z0, x1, z1 = values
-    if not (x1 > x0 and z1 > z0):
-        raise PatchlightError(f"--area {text}: needs X1 > X0 and Z1 > Z0")
-    return GroundArea(x0, z0, x1, z1)
-
-
 def square_area(lo: np.ndarray, hi: np.ndarray) -> GroundArea:
     """The square around the x, z extent of bounds (lo, hi) (3,), so texels are square."""
     cx, cz = (lo[0] + hi[0]) / 2, (lo[2] + hi[2]) / 2

@@ -1,8 +1,7 @@
 """The CPU renderer: Embree camera rays, then the NumPy reference shading (patchlight.shading)."""
-from .camera import Camera, parse_camera
+from .camera import Camera
 from .renderer import Renderer, RenderResult
 from .settings import target_settings
 from .target import Target, load_target
 
-__all__ = ["Camera", "RenderResult", "Renderer", "Target", "load_target", "parse_camera",
-           "target_settings"]
+__all__ = ["Camera", "RenderResult", "Renderer", "Target", "load_target", "target_settings"]

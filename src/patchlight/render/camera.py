@@ -57,22 +57,6 @@ class Camera:
         return {"eye": [float(v) for v in self.eye], "target": [float(v) for v in self.target], "fov": float(self.fov)}
 
 
-def parse_camera(values: list[str]) -> Camera:
-    """Camera from `--camera EX,EY,EZ TX,TY,TZ FOV`."""
-    if len(values) != 3:
-        raise PatchlightError("--camera takes three values: EX,EY,EZ TX,TY,TZ FOV")
-    try:
-        eye, target = (np.array([float(x) for x in v.split(",")]) for v in values[:2])
-        fov = float(values[2])
-    except ValueError:
-        raise PatchlightError(f"--camera {' '.join(values)}: expected EX,EY,EZ TX,TY,TZ FOV numbers") from None
-    if eye.shape != (3,) or target.shape != (3,) or not np.all(np.isfinite(np.r_[eye, target, fov])):
-        raise PatchlightError(f"--camera {' '.join(values)}: eye and target need three finite numbers each")
-    camera = Camera(eye, target, fov)
-    camera.basis()
-    return camera
-
-
 def scene_camera(scene) -> Camera | None:
     """The camera the scene names in extras["camera"] = {eye, target, fov}, or None."""
     given = scene.extras.get("camera") if isinstance(scene.extras, dict) else None

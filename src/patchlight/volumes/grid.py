@@ -89,23 +89,6 @@ def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
     return ProbeGrid(tuple(map(float, origin)), tuple(map(float, step)), tuple(counts))
 
 
-def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray]:
-    """'X0,Y0,Z0,X1,Y1,Z1' -> (lo, hi), or a one-line error."""
-    try:
-        values = np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        values = np.zeros(0)
-    if values.shape != (6,) or not np.all(np.isfinite(values)):
-        raise PatchlightError(f"--bounds {text}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)")
-    lo, hi = values[:3], values[3:]
-    if np.any(hi < lo):
-        raise PatchlightError(f"--bounds {text}: each of X1, Y1, Z1 must be at least X0, Y0, Z0")
-    with np.errstate(over="ignore"):  # probes are traced in float32: corners and size must fit
-        if not (np.all(np.isfinite(values.astype(np.float32))) and np.all(np.isfinite((hi - lo).astype(np.float32)))):
-            raise PatchlightError(f"--bounds {text}: too large for float32 positions (beyond 3.4e38 m)")
-    return lo, hi
-
-
 def check_overlap(lo, hi, scene_lo, scene_hi) -> None:
     """PatchlightError when the box [lo, hi] and the scene's bounds share no point."""
     if np.any(np.asarray(hi) < scene_lo) or np.any(np.asarray(lo) > scene_hi):
