@@ -1,38 +1,14 @@
-"""Every bake default in one place, with unit, range and typical value.
-
-| name              | unit / type   | default        | meaning (range; typical)                                        |
-|-------------------|---------------|----------------|-----------------------------------------------------------------|
-| resolution        | texels        | None           | lightmap width = height (16..8192); None: from texels_per_unit  |
-| texels_per_unit   | texels / m    | 16             | lightmap density when UVs are made (0.001..10000; 8-64)         |
-| padding           | texels        | 2              | gap between UV charts (>= 2)                                    |
-| gather            | str           | "stratified"   | "hemicube" or "stratified" (measured faster to a given error)   |
-| hemicube_size     | pixels        | 32             | front face N x N, even (8..512; 32-128)                         |
-| rays              | rays / patch  | 512            | stratified rays, rounded down to an a x b grid (16..16384; 512) |
-| passes            | count         | 100            | upper bound on passes (1 = direct + sky only)                   |
-| tolerance         | ratio         | 1e-3           | stop when the largest relative change still to come is below    |
-| adaptive          | bool          | True           | compute every 4th texel, refine where neighbours differ         |
-| first_accuracy    | ratio         | 0.5            | the sampler's first run, for the first passes (0..1; 0.5)       |
-| accuracy          | ratio         | 0.98           | final run: threshold = accuracy ** spacing (0..1; 0.98)         |
-| sun_samples       | rays / texel  | 16             | shadow rays over the sun's disc when its angle is > 0           |
-| texel_samples     | per axis      | 2              | direct light averaged over n x n points of each texel (1..4)    |
-| sun_angle         | degrees       | None           | override the sun's angular diameter (0 = hard; 0.53 real sun)   |
-| falloff           | str           | inverse-square | point/spot falloff when a light names none: or "range"         |
-| exposure          | 1 / radiance  | "auto"         | PNG = 1 - exp(-k I); auto puts the 90th percentile at 0.8       |
-| max_memory        | bytes         | 8 GiB          | above this the form-factor matrix is not kept: re-gather a pass |
-| seed              | int           | 1              | random rotation of the stratified pattern per patch (>= 0)      |
-| denoise           | bool          | False          | OIDN (RTLightmap) on the gathered light; direct stays sharp     |
-| save_passes       | bool          | False          | also a PNG per pass (pass_01.png, ...); texels.npz has them all |
-| stitch            | bool          | True           | least-squares agreement of the lookups across UV chart seams    |
-| directional       | str           | None           | also bake "sh" (L1, lightmap_sh.exr) or "dominant" (_dir.exr)   |
-| ray               | str           | None           | Ray head HOST:PORT for the gather ("auto", or "local": start one) |
-| density           | {name: T}     | {}             | texels / m of the objects so named (over their extras)          |
+"""Every bake setting in one place: its default, unit, range, typical value and meaning are
+declared once, on the field, and drive `BakeSettings.validate`, the `patchlight bake --help`
+texts (cli/bake.py) and the table in docs/settings.md (`settings_table`; a test checks that
+the file holds exactly that table).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import MISSING, asdict, dataclass, field, fields
 
-from .errors import PatchlightError
+from .errors import SettingError
 
 GiB = 1 << 30
 FALLOFFS = ("inverse-square", "range")
@@ -41,68 +17,125 @@ DIRECTIONAL_MODES = ("sh", "dominant")  # L1 spherical harmonics, or the dominan
 TEXELS_PER_UNIT = (1e-3, 1e4)  # the range taken, texels per metre
 
 
+def setting(default, unit: str, meaning: str, *, lo=None, hi=None, lo_open: bool = False, hi_open: bool = False,
+            whole: bool = False, even: bool = False, choices: tuple = (), typical: str = "", none: str = "",
+            each: bool = False):
+    """A settings field with its metadata: unit; meaning; the accepted range lo..hi (either
+    end may be open or absent); whole: an int; even; choices: the accepted strings (beside a
+    number, when a range is given too); typical: the usual values; none: what None means
+    (None is refused when empty); each: the value is a {name: value} dict (default: empty),
+    every value checked."""
+    meta = {"unit": unit, "meaning": meaning, "lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open,
+            "whole": whole, "even": even, "choices": choices, "typical": typical, "none": none, "each": each}
+    return field(default_factory=dict, metadata=meta) if each else field(default=default, metadata=meta)
+
+
+def accepted(meta: dict) -> str:
+    """The accepted values of a field, as the table and the errors word them."""
+    choices = meta["choices"]
+    parts = [choices[0] if len(choices) == 1 else f"one of {', '.join(choices)}"] if choices else []
+    lo, hi = meta["lo"], meta["hi"]
+    if lo is not None or hi is not None:
+        kind = "even whole number" if meta["even"] else "whole number" if meta["whole"] else "number"
+        if lo is not None and hi is not None and not (meta["lo_open"] or meta["hi_open"]):
+            parts.append(f"{kind} in {lo:g}..{hi:g}")
+        else:
+            bounds = ([f"{'>' if meta['lo_open'] else '>='} {lo:g}"] if lo is not None else []) + \
+                     ([f"{'<' if meta['hi_open'] else '<='} {hi:g}"] if hi is not None else [])
+            parts.append(f"{kind} {' and '.join(bounds)}")
+    if meta["none"]:
+        parts.append(f"unset ({meta['none']})")
+    return " or ".join(parts)
+
+
+def check(name: str, value, meta: dict) -> None:
+    """SettingError naming the field when `value` is outside what `meta` accepts."""
+    if meta["each"]:
+        if not isinstance(value, dict):
+            raise SettingError(name, value, "must be a {name: value} mapping")
+        for key, item in value.items():
+            check(f"{name} {key}", item, {**meta, "each": False})
+        return
+    if value is None and meta["none"]:
+        return
+    if isinstance(value, str) and value in meta["choices"]:
+        return
+    lo, hi = meta["lo"], meta["hi"]
+    if lo is None and hi is None:
+        if meta["choices"]:
+            raise SettingError(name, value, f"must be one of {', '.join(meta['choices'])}")
+        return
+    number = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = (number and (not meta["whole"] or isinstance(value, int)) and (not meta["even"] or value % 2 == 0)
+          and (lo is None or (value > lo if meta["lo_open"] else value >= lo))
+          and (hi is None or (value < hi if meta["hi_open"] else value <= hi)))
+    if not ok:
+        article = "" if meta["choices"] else "a "
+        unit = "" if meta["unit"] in ("", "ratio", "count", "int") else f" ({meta['unit']})"
+        raise SettingError(name, value, f"must be {article}{accepted(meta)}{unit}")
+
+
 @dataclass
 class BakeSettings:
-    resolution: int | None = None
-    texels_per_unit: float = 16.0
-    padding: int = 2
-    gather: str = "stratified"
-    hemicube_size: int = 32
-    rays: int = 512
-    passes: int = 100
-    tolerance: float = 1e-3
-    adaptive: bool = True
-    first_accuracy: float = 0.5
-    accuracy: float = 0.98
-    sun_samples: int = 16
-    texel_samples: int = 2
-    sun_angle: float | None = None
-    falloff: str = "inverse-square"
-    exposure: float | str = "auto"
-    max_memory: int = 8 * GiB
-    seed: int = 1
-    denoise: bool = False
-    save_passes: bool = False
-    stitch: bool = True
-    directional: str | None = None
-    ray: str | None = None
-    density: dict[str, float] = field(default_factory=dict)
+    resolution: int | None = setting(None, "texels", "lightmap width = height", lo=16, hi=8192, whole=True,
+                                     typical="256-2048", none="from texels_per_unit")
+    texels_per_unit: float = setting(16.0, "texels / m", "lightmap density when UVs are made", lo=TEXELS_PER_UNIT[0],
+                                     hi=TEXELS_PER_UNIT[1], typical="8-64")
+    padding: int = setting(2, "texels", "gap between UV charts", typical="2")
+    gather: str = setting("stratified", "", "gather rays: stratified cosine rays, or hemicubes (measured slower "
+                          "to a given error)", choices=GATHERS)
+    hemicube_size: int = setting(32, "pixels", "hemicube front face N x N", lo=2, hi=512, even=True, whole=True,
+                                 typical="32-128")
+    rays: int = setting(512, "rays / patch", "stratified rays, rounded down to an a x b grid", lo=1, hi=16384,
+                        whole=True, typical="256-4096")
+    passes: int = setting(100, "count", "upper bound on passes (1 = direct + sky + emitters)", lo=1, whole=True,
+                          typical="100")
+    tolerance: float = setting(1e-3, "ratio", "stop when the largest relative change still to come is below",
+                               lo=0, lo_open=True, typical="1e-3")
+    adaptive: bool = setting(True, "bool", "gather every 4th texel, then where neighbours differ")
+    first_accuracy: float = setting(0.5, "ratio", "the adaptive sampler's first run, for the first passes",
+                                    lo=0, hi=1, lo_open=True, hi_open=True, typical="0.5")
+    accuracy: float = setting(0.98, "ratio", "the sampler's final run: gather where neighbours differ by more than "
+                              "accuracy ^ spacing", lo=0, hi=1, lo_open=True, hi_open=True, typical="0.98")
+    sun_samples: int = setting(16, "rays / texel", "shadow rays over the sun's disc when its angle is > 0", lo=1,
+                               whole=True, typical="16")
+    texel_samples: int = setting(2, "per axis", "direct light averaged over n x n points of each texel", lo=1, hi=4,
+                                 whole=True, typical="2")
+    sun_angle: float | None = setting(None, "degrees", "the sun's angular diameter (0 = hard shadows)", lo=0, hi=90,
+                                      hi_open=True, typical="0.53 (the real sun)", none="each light's own")
+    falloff: str = setting("inverse-square", "", "point/spot falloff for lights that name none", choices=FALLOFFS)
+    exposure: float | str = setting("auto", "1 / radiance", "PNG = 1 - exp(-k I); auto puts the 90th percentile at "
+                                    "0.8", lo=0, lo_open=True, choices=("auto",))
+    max_memory: int = setting(8 * GiB, "bytes", "the most the form-factor matrix may keep; beyond, every pass "
+                              "re-gathers", lo=0, hi=1 << 50, typical="8 GiB")
+    seed: int = setting(1, "int", "the jitter of the ray pattern and its rotation per patch", lo=0, whole=True)
+    denoise: bool = setting(False, "bool", "OIDN on the gathered light, chart by chart; direct stays sharp")
+    save_passes: bool = setting(False, "bool", "also a PNG per pass (pass_01.png, ...); texels.npz has them all")
+    stitch: bool = setting(True, "bool", "least-squares agreement of the lookups across UV chart seams")
+    directional: str | None = setting(None, "", "also bake the light's direction: L1 spherical harmonics "
+                                      "(lightmap_sh.exr) or the dominant direction and its share (lightmap_dir.exr)",
+                                      choices=DIRECTIONAL_MODES, none="no directional map")
+    ray: str | None = setting(None, "str", "Ray head HOST:PORT for the gather (\"auto\", or \"local\": start one)",
+                              none="gather here")
+    density: dict = setting(None, "texels / m", "the density of the objects (glTF nodes or meshes) so named, over "
+                            "their extras", lo=TEXELS_PER_UNIT[0], hi=TEXELS_PER_UNIT[1], each=True)
 
     def to_json(self) -> dict:
         return asdict(self)
 
     def validate(self) -> None:
-        """PatchlightError naming the first setting outside its range (the table above)."""
-        def number(x) -> bool:
-            return isinstance(x, (int, float)) and math.isfinite(x)
+        """PatchlightError naming the first setting outside what its field accepts."""
+        for f in fields(self):
+            check(f.name, getattr(self, f.name), f.metadata)
 
-        checks = [
-            (self.resolution is None or (isinstance(self.resolution, int) and 16 <= self.resolution <= 8192),
-             f"resolution: {self.resolution} is not a whole number of texels in 16..8192"),
-            (number(self.texels_per_unit) and TEXELS_PER_UNIT[0] <= self.texels_per_unit <= TEXELS_PER_UNIT[1],
-             f"texels per unit: {self.texels_per_unit} is not a number in {TEXELS_PER_UNIT[0]:g}..{TEXELS_PER_UNIT[1]:g}"),
-            (self.gather in GATHERS, f"gather must be one of {', '.join(GATHERS)}"),
-            (self.falloff in FALLOFFS, f"falloff must be one of {', '.join(FALLOFFS)}"),
-            (isinstance(self.passes, int) and self.passes >= 1, "passes must be a whole number >= 1"),
-            (number(self.tolerance) and self.tolerance > 0, "tolerance must be a positive number"),
-            (number(self.accuracy) and 0 < self.accuracy < 1, "accuracy must lie between 0 and 1"),
-            (number(self.first_accuracy) and 0 < self.first_accuracy < 1, "first accuracy must lie between 0 and 1"),
-            (isinstance(self.rays, int) and 1 <= self.rays <= 16384, "rays must be a whole number in 1..16384"),
-            (isinstance(self.hemicube_size, int) and 2 <= self.hemicube_size <= 512 and self.hemicube_size % 2 == 0,
-             "hemicube size must be an even number in 2..512"),
-            (isinstance(self.sun_samples, int) and self.sun_samples >= 1, "sun samples must be a whole number >= 1"),
-            (isinstance(self.texel_samples, int) and 1 <= self.texel_samples <= 4, "texel samples must be 1..4"),
-            (self.sun_angle is None or (number(self.sun_angle) and 0 <= self.sun_angle < 90),
-             "sun angle must lie in 0..90 degrees"),
-            (self.exposure == "auto" or (number(self.exposure) and self.exposure > 0),
-             "exposure must be a positive number or auto"),
-            (number(self.max_memory) and 0 <= self.max_memory <= 1 << 50, "max memory must be a number of bytes in 0..2^50"),
-            (isinstance(self.seed, int) and self.seed >= 0, "seed must be a whole number >= 0"),
-            (self.directional in (None, *DIRECTIONAL_MODES), "directional must be sh or dominant"),
-            *((number(t) and TEXELS_PER_UNIT[0] <= t <= TEXELS_PER_UNIT[1],
-               f"density {name}: {t} texels per metre is not a number in "
-               f"{TEXELS_PER_UNIT[0]:g}..{TEXELS_PER_UNIT[1]:g}") for name, t in self.density.items()),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise PatchlightError(message)
+
+def settings_table(cls=BakeSettings) -> str:
+    """The Markdown table of a settings class's fields: name, unit, default, accepted values,
+    typical values, meaning."""
+    rows = ["| name | unit | default | accepted | typical | meaning |", "|---|---|---|---|---|---|"]
+    for f in fields(cls):
+        m = f.metadata
+        default = f.default_factory() if f.default is MISSING else f.default
+        default = repr(default) if isinstance(default, str) else default
+        rows.append(f"| {f.name} | {m['unit']} | {default} | {accepted(m)} | {m['typical']} | {m['meaning']} |")
+    return "\n".join(rows) + "\n"

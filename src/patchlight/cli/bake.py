@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..config import DIRECTIONAL_MODES, GATHERS, BakeSettings
 from ..errors import PatchlightError
-from .options import DEFAULTS, add_scene_options, load_lit_scene
+from .options import DEFAULTS, about, add_scene_options, load_lit_scene
 from .parser import finite_number, writes_output
 
 MAX_MEMORY_GIB = 1 << 20
@@ -22,36 +22,33 @@ def register(sub) -> None:
 
 
 def add_bake_options(p: argparse.ArgumentParser) -> None:
+    """The bake's flags; their help texts, defaults and ranges come from BakeSettings' fields."""
     add_scene_options(p)
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--resolution", type=int, metavar="N", help="lightmap width = height in texels (16..8192)")
-    size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T")
-    p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather)
-    p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
-    p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
-    p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
-    p.add_argument("--tolerance", type=finite_number, default=DEFAULTS.tolerance,
-                   help="stop when the largest relative change still to come is below (default %(default)s)")
-    p.add_argument("--accuracy", type=finite_number, default=DEFAULTS.accuracy,
-                   help="adaptive sampling, final run: gather where neighbours differ by more than "
-                        "accuracy^spacing (default %(default)s)")
-    p.add_argument("--first-accuracy", type=finite_number, default=DEFAULTS.first_accuracy,
-                   help="adaptive sampling, first run, for the first passes (default %(default)s)")
+    size.add_argument("--resolution", type=int, metavar="N", help=about("resolution"))
+    size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T",
+                      help=about("texels_per_unit"))
+    p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather, help=about("gather"))
+    p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N", help=about("hemicube_size"))
+    p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help=about("rays"))
+    p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N", help=about("passes"))
+    p.add_argument("--tolerance", type=finite_number, default=DEFAULTS.tolerance, help=about("tolerance"))
+    p.add_argument("--accuracy", type=finite_number, default=DEFAULTS.accuracy, help=about("accuracy"))
+    p.add_argument("--first-accuracy", type=finite_number, default=DEFAULTS.first_accuracy, help=about("first_accuracy"))
     p.add_argument("--no-adaptive", action="store_true", help="gather at every texel")
-    p.add_argument("--save-passes", action="store_true", help="also write pass_01.png, pass_02.png, ... (texels.npz keeps every pass anyway)")
-    p.add_argument("--denoise", action="store_true", help="denoise the gathered light with Intel OIDN")
-    p.add_argument("--directional", choices=DIRECTIONAL_MODES,
-                   help="also bake the light's direction: L1 spherical harmonics (lightmap_sh.exr) or the "
-                        "dominant direction and its share (lightmap_dir.exr), for --model lightmap-directional")
+    p.add_argument("--save-passes", action="store_true", help=about("save_passes"))
+    p.add_argument("--denoise", action="store_true", help=about("denoise"))
+    p.add_argument("--directional", choices=DIRECTIONAL_MODES, help=about("directional"))
     p.add_argument("--no-stitch", dest="stitch", action="store_false",
                    help="leave UV chart seams as solved (default: texels across a seam made to agree)")
-    p.add_argument("--ray", metavar="ADDRESS", help="run the gather on a Ray cluster: its head's HOST:PORT, auto, or local")
+    p.add_argument("--ray", metavar="ADDRESS", help=about("ray"))
     p.add_argument("--density", action="append", default=[], metavar="NAME=T",
                    help="texels per metre for the objects (glTF nodes or meshes) named NAME; repeatable")
-    p.add_argument("--exposure", default="auto", help="K for 1 - exp(-K I), or auto")
+    p.add_argument("--exposure", default=DEFAULTS.exposure, help=about("exposure"))
     p.add_argument("--max-memory", type=finite_number, default=DEFAULTS.max_memory / 2**30, metavar="GiB",
-                   help=f"most memory the form factors may keep, 0..{MAX_MEMORY_GIB} (default %(default)s)")
-    p.add_argument("--seed", type=int, default=DEFAULTS.seed)
+                   help=f"the most the form-factor matrix may keep, 0..{MAX_MEMORY_GIB} GiB; beyond, every pass "
+                        "re-gathers (default %(default)s)")
+    p.add_argument("--seed", type=int, default=DEFAULTS.seed, help=about("seed"))
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the bake summary as JSON on stdout")
 

@@ -3,17 +3,29 @@ flag values: values.py)."""
 from __future__ import annotations
 
 import argparse
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
-from ..config import FALLOFFS, BakeSettings
+from ..config import FALLOFFS, BakeSettings, accepted
 from ..errors import PatchlightError
 from ..shading.hemisphere_radiosity import OFFSET_MODES
 from .parser import finite_number
 from .values import parse_light_spec, parse_rgb
 
 DEFAULTS = BakeSettings()
+
+
+def about(name: str, settings=BakeSettings) -> str:
+    """The --help text of the flag that sets field `name`: its meaning, unit, what it accepts
+    and its default, from the field's metadata (config.setting)."""
+    meta = next(f.metadata for f in fields(settings) if f.name == name)
+    unit = "" if meta["unit"] in ("", "ratio", "count", "int", "bool", "str") else f", {meta['unit']}"
+    accepts = accepted(meta)
+    if meta["unit"] == "bool":
+        return meta["meaning"]
+    return f"{meta['meaning']}{unit}" + (f"; {accepts}" if accepts else "") + " (default %(default)s)"
 
 
 def add_scene_options(p: argparse.ArgumentParser) -> None:
@@ -23,9 +35,8 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
     sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
                      help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
     sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
-    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff,
-                   help="point/spot falloff for lights that name none (default %(default)s)")
-    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help="sun's angular diameter, soft shadows")
+    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff, help=about("falloff"))
+    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help=about("sun_angle"))
 
 
 def add_shading_options(p: argparse.ArgumentParser) -> None:

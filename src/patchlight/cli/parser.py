@@ -47,6 +47,10 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own usage errors also exit 2, in one line
         self.exit(2, f"patchlight: error: {message}\n")
 
+    def flag(self, dest: str) -> str | None:
+        """The option that sets `dest` (its long form), or None."""
+        return next((a.option_strings[-1] for a in self._actions if a.dest == dest and a.option_strings), None)
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="patchlight", description="Baked radiosity lightmaps, light volumes, ground "
@@ -59,4 +63,5 @@ def build_parser() -> argparse.ArgumentParser:
             sub.choices[name].add_argument(
                 "--allow-outside-files", action="store_true",
                 help="let the glTF's uris name files outside its folder (absolute paths, '..', links)")
+    parser.commands = sub.choices  # name -> its parser
     return parser
