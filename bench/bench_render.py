@@ -12,7 +12,8 @@ import time
 
 import numpy as np
 
-from patchlight.render import Renderer, load_target, target_settings
+from patchlight.inputs import open_input
+from patchlight.render import Renderer, target_settings
 from patchlight.scene.model import Light
 from patchlight.shading import MODELS
 
@@ -23,7 +24,7 @@ def main() -> None:
     parser.add_argument("--scene", default="room")
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    target = load_target(args.scene)
+    target, _ = open_input(args.scene).target()
     renderer = Renderer(target)
     camera = renderer.default_camera()
     lights = target.scene.lights + [Light("point", np.ones(3, np.float32), 200.0,

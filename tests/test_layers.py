@@ -27,7 +27,7 @@ LAYERS = (
     ("solved",),
     ("volumes", "ground", "render"),
     ("patchview",),  # the view from one texel of a bake, drawn as render draws pictures
-    ("viewer",),
+    ("viewer", "inputs"),  # inputs: what a command-line name or path stands for
     ("cli",),
     ("__init__",),  # the public API: patchlight.load_scene, bake, ...
 )

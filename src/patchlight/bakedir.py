@@ -58,7 +58,8 @@ def is_bake_dir(path: str | Path) -> bool:
 def require_bake_dir(path: str | Path) -> Path:
     """`path` as a complete bake directory, else a one-line PatchlightError."""
     if not is_bake_dir(path):
-        raise PatchlightError(f"{path}: not a complete bake (needs {', '.join(REQUIRED[:-1])} and {REQUIRED[-1]})")
+        raise PatchlightError(f"{path}: not a complete bake (a directory is not a bake without "
+                              f"{', '.join(REQUIRED[:-1])} and {REQUIRED[-1]})")
     return Path(path)
 
 

@@ -13,7 +13,7 @@ from patchlight.cli.parser import build_parser
 from patchlight.errors import PatchlightError
 from patchlight.ground.files import load_ground_map
 from patchlight.ground.groundmap import GroundMapSettings, make_groundmap, write_groundmap
-from patchlight.ground.viewer import view_target
+from patchlight.ground.viewer import ground_map_target
 from patchlight.imaging.io import read_exr
 from patchlight.solved import load_solved
 
@@ -55,7 +55,7 @@ def test_view_opens_the_map_written_with_its_own_sky(baked, tmp_path, capsys):
     out = tmp_path / "map"
     assert main(["groundmap", str(bake_dir), "-o", str(out), "--size", "16", "--quiet", "--sky", "3,3,3"]) == 0
     manifest = json.loads((out / "groundmap.json").read_text())
-    shown, inputs = view_target(str(out))
+    shown, inputs = ground_map_target(str(out))
     assert Path(shown) == bake_dir.resolve()
     assert np.array_equal(inputs.sky_scale, np.float32(manifest["sky_scale"]))
     assert np.array_equal(inputs.texture, load_ground_map(out).texture)

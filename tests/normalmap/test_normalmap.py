@@ -123,13 +123,13 @@ def test_ao_beside_a_wall_matches_the_strip_form_factor(tmp_path):
 def test_the_map_drops_into_render_normal_map(files, tmp_path, light):
     """The flat low plane wearing the sphere's map lights as the sphere's analytic normals do,
     pixel by pixel, for lights along u (red), along v (green, +Y up the image) and between."""
-    from patchlight.render import Camera, Renderer, target_settings
-    from patchlight.render.target import load_target
+    from patchlight.render import Camera, Renderer, Target, target_settings
+    from patchlight.scene import load_scene
 
     normal = tmp_path / "n.png"
     assert main(["normalmap", str(files["sphere"]), str(files["low"]), "-o", str(normal), "--size", "64x64",
                  "--distance", "1.2", "--quiet"]) == 0
-    target = load_target(str(files["low"]))
+    target = Target.from_scene(load_scene(str(files["low"])))
     use_normal_map(target, normal)
     to_light = np.asarray(light, float) / np.linalg.norm(light)
     sun = Light("directional", np.ones(3, np.float32), 3.0, direction=(-to_light).astype(np.float32))

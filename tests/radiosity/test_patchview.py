@@ -16,7 +16,8 @@ from patchlight.config import BakeSettings
 from patchlight.imaging.io import read_exr
 from patchlight.patchview import PatchViews, _cross_pixels
 from patchlight.radiosity import adaptive
-from patchlight.render import Renderer, load_target, target_settings
+from patchlight.inputs import open_input
+from patchlight.render import Renderer, target_settings
 from patchlight.scene import load_scene
 from patchlight.texels import STATUS_NAMES, read_bake_texels
 
@@ -72,7 +73,7 @@ def test_the_unfolded_hemicube_is_what_five_cameras_at_the_patch_see(baked):
     CPU renderer's lightmap model (bilinear lightmap x base colour + emission) along pinhole
     rays built here from the patch's frame."""
     result, out = baked
-    target = load_target(str(out))
+    target, _ = open_input(str(out)).target()
     renderer = Renderer(target)
     settings = target_settings(target, model="lightmap")
     views = PatchViews(out)

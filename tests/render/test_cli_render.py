@@ -8,7 +8,8 @@ from render_scenes import closed_sphere_under_a_sun, showcase_scene
 from patchlight.cli.main import main
 from patchlight.imaging.exposure import exposed_png_pixels
 from patchlight.imaging.io import read_exr, read_image, write_exr
-from patchlight.render import Camera, Renderer, load_target, target_settings
+from patchlight.render import Camera, Renderer, Target, target_settings
+from patchlight.scene import load_scene
 from patchlight.scene.gltf import save_baked_glb
 
 CAMERA = ["3.2,2.0,4.2", "0.2,-0.3,0.0", "40"]
@@ -38,7 +39,7 @@ def test_exr_holds_the_renderers_linear_radiance_and_png_its_exposed_picture(sce
     common = [str(scene_file), "--model", "phong", "--camera", *CAMERA, "--size", "40x30"]
     assert main(["render", *common, "-o", str(exr)]) == 0
     assert main(["render", *common, "--exposure", "0.7", "-o", str(png)]) == 0
-    target = load_target(str(scene_file))
+    target = Target.from_scene(load_scene(str(scene_file)))
     camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
     expected = Renderer(target).render(target_settings(target, model="phong"), camera, 40, 30).radiance
     np.testing.assert_array_equal(read_exr(exr), expected)
@@ -123,7 +124,7 @@ def test_envmap_from_reaches_hemisphere_radiosity_too(scene_file, tmp_path):
     base = [str(scene_file), "--model", "hemisphere-radiosity", "--camera", *CAMERA, "--size", "24x24"]
     assert main(["render", *base, "-o", str(sky)]) == 0
     assert main(["render", *base, "--envmap-from", "0,0.5,2.5", "-o", str(point)]) == 0
-    target = load_target(str(scene_file))
+    target = Target.from_scene(load_scene(str(scene_file)))
     camera = Camera(np.array([3.2, 2.0, 4.2]), np.array([0.2, -0.3, 0.0]), 40.0)
     settings = target_settings(target, model="hemisphere-radiosity")
     expected = Renderer(target, envmap_from=(0, 0.5, 2.5)).render(settings, camera, 24, 24).radiance

@@ -8,7 +8,8 @@ import pytest
 from render_scenes import _box, _quad, closed_sphere_under_a_sun, scene_from_parts, showcase_target, sphere_target
 
 from patchlight.errors import PatchlightError
-from patchlight.render import Camera, Renderer, Target, load_target, target_settings
+from patchlight.render import Camera, Renderer, Target, target_settings
+from patchlight.scene import load_scene
 from patchlight.scene.model import Light, Material
 
 
@@ -74,7 +75,7 @@ def test_a_camera_outside_behind_a_single_sided_wall_sees_the_box_through_it():
     """Behind the Cornell box's back wall (single-sided, facing in) the camera is outside: the
     few directions that meet the box meet back faces, most meet nothing. It sees the inside of
     the box through the culled wall, as the viewer does."""
-    target = load_target("cornell")
+    target = Target.from_scene(load_scene("cornell"))
     renderer = Renderer(target)
     eye = np.array([0.278, 0.27, 1.5])
     assert renderer.inside_share(eye) < 0.1 and not renderer.is_inside(eye)
@@ -84,7 +85,7 @@ def test_a_camera_outside_behind_a_single_sided_wall_sees_the_box_through_it():
 
 def test_a_camera_inside_a_solid_wall_is_refused():
     """The room's walls are solid single-sided boxes: inside one, every direction meets a back face."""
-    target = load_target("room")
+    target = Target.from_scene(load_scene("room"))
     renderer = Renderer(target)
     eye = np.array([4.0, 0.45, -0.2])  # inside the front wall, below the middle window
     assert renderer.inside_share(eye) > 0.75  # not 1: faces the wall shares with its neighbours

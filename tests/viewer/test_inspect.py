@@ -25,7 +25,8 @@ from patchlight.imaging.color import LUMINANCE
 from patchlight.imaging.exposure import auto_exposure
 from patchlight.imaging.io import read_exr, write_exr
 from patchlight.patchview import PatchViews, patch_picture
-from patchlight.render import Camera, Renderer, load_target, target_settings
+from patchlight.inputs import open_input
+from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.scene import load_scene
 from patchlight.solved import load_solved
@@ -79,8 +80,8 @@ def run(browser, baked, tmp_path_factory):
     compare with."""
     out = tmp_path_factory.mktemp("inspect")
     (out / "script.json").write_text(json.dumps({"steps": STEPS}))
-    target = load_target(str(baked))
-    compare = load_target(str(brighter_copy(baked)))
+    target, _ = open_input(str(baked)).target()
+    compare, _ = open_input(str(brighter_copy(baked))).target()
     with make_server(target, target_settings(target, model="lightmap"), compare=compare) as server:
         log = browser.run("inspect", server.url, out, out / "script.json", timeout=600)
     return log, out, target
@@ -255,15 +256,15 @@ def test_compare_needs_a_bake_of_the_same_lightmap_uvs(baked, tmp_path, capsys):
     other = tmp_path / "other"
     settings = BakeSettings(resolution=96, gather="hemicube", hemicube_size=4, passes=2)
     write_bake(bake(load_scene("room"), settings), other, settings)
-    target = load_target(str(baked))
+    target, _ = open_input(str(baked)).target()
     with pytest.raises(PatchlightError, match="not a bake with the same lightmap UVs"):
-        make_server(target, target_settings(target, model="lightmap"), exposure=1.0, compare=load_target(str(other)))
+        make_server(target, target_settings(target, model="lightmap"), exposure=1.0, compare=open_input(str(other)).target()[0])
     assert main(["view", str(baked), "--compare", "room"]) == 2
     assert "--compare room: not a bake with the same lightmap UVs" in capsys.readouterr().err
 
 
 def test_the_patch_route_and_view_patch_refuse_what_is_not_there(baked, capsys):
-    target = load_target(str(baked))
+    target, _ = open_input(str(baked)).target()
     h, w = target.texels.status.shape
     ys, xs = np.nonzero(target.texels.status == 0)
     with make_server(target, target_settings(target, model="lightmap"), exposure=1.0) as server:

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from browser_support import difference
 
-from patchlight.render import Camera, Renderer, load_target, target_settings
+from patchlight.render import Camera, Renderer, Target, target_settings
+from patchlight.scene import load_scene
 from patchlight.render.output import display_pixels
 from patchlight.shading.lights import FALLOFFS, PunctualLight
 from patchlight.viewer.app import make_server
@@ -40,7 +41,7 @@ def aim(azimuth: float, elevation: float) -> list[float]:
 
 @pytest.fixture(scope="module")
 def cornell():
-    target = load_target("cornell")
+    target = Target.from_scene(load_scene("cornell"))
     assert target.scene.lights == []
     return target
 

@@ -17,7 +17,6 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
-from ..scene import is_builtin
 from .options import add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
 from .values import parse_area
@@ -88,20 +87,20 @@ def run(args) -> int:
     from ..config import BakeSettings
     from ..ground.groundmap import make_groundmap, plan_groundmap, write_groundmap
     from ..imaging.io import check_output_dir
-    from ..bakedir import is_bake_dir, recorded_sun_angle
-    from ..solved import SolvedScene, load_solved
+    from ..bakedir import recorded_sun_angle, require_bake_dir
+    from ..inputs import open_input
+    from ..solved import SolvedScene
 
     settings = settings_from_args(args)
     check_output_dir(args.output)
     made = None  # (BakeResult, BakeSettings) of a scene baked here
-    if is_bake_dir(args.scene):
-        bake_dir = os.path.relpath(Path(args.scene).resolve(), args.output.resolve())
+    source = open_input(args.scene)
+    if source.kind in ("bake", "groundmap"):
+        bake_dir = os.path.relpath(require_bake_dir(source.path).resolve(), args.output.resolve())
         if settings.sun_angle is None:  # the map's shadows are the bake's
-            settings.sun_angle = recorded_sun_angle(args.scene)
-        solved = load_solved(args.scene, sky=sky_from_args(args))
+            settings.sun_angle = recorded_sun_angle(source.path)
+        solved = source.solved(sky=sky_from_args(args))
         plan = None
-    elif not is_builtin(args.scene) and Path(args.scene).is_dir():
-        raise PatchlightError(f"{args.scene}: a directory without scene.glb and lightmap.exr is not a bake")
     else:
         scene = load_lit_scene(args)
         bake_settings = BakeSettings(texels_per_unit=bake_density(args, scene), sun_angle=args.sun_angle,

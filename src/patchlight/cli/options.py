@@ -86,9 +86,9 @@ def sky_from_args(args):
 
 def load_lit_scene(args):
     """The scene named on the command line, with the sky the flags give."""
-    from ..scene import load_scene
+    from ..inputs import open_input
 
-    scene = load_scene(args.scene)
+    scene = open_input(args.scene).scene()
     sky = sky_from_args(args)
     if sky is not None:
         scene.sky = sky
@@ -99,13 +99,11 @@ def load_target_and_settings(args, model: str | None):
     """The target the arguments name and its ShadingSettings (exposure left at 1). A ground
     map directory names its bake, with the map as the hemisphere-radiosity model's. model None:
     lightmap when the target has one (a bake), else lambert."""
-    from ..ground.viewer import view_target
+    from ..inputs import open_input
     from ..render.settings import target_settings
-    from ..render.target import load_target
     from ..volumes.viewer import find_volume
 
-    spec, ground_map = view_target(args.target, args.offset_mode)
-    target = load_target(spec)
+    target, ground_map = open_input(args.target).target(args.offset_mode)
     sky = sky_from_args(args)
     if sky is not None:
         target.scene.sky = sky
@@ -139,9 +137,9 @@ def load_solved_from_args(args, quiet: bool):
     """The solved scene the arguments name, baked now (default settings, the flags' falloff
     and sun angle) when it is not a bake directory."""
     from ..config import BakeSettings
-    from ..solved import load_solved
+    from ..inputs import open_input
 
     settings = BakeSettings(falloff=args.falloff, sun_angle=args.sun_angle)
-    return load_solved(args.scene, settings, sky=sky_from_args(args), quiet=quiet)
+    return open_input(args.scene).solved(settings, sky=sky_from_args(args), quiet=quiet)
 
 

@@ -46,14 +46,14 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..patchview import parse_texel
-    from ..render.target import load_target
+    from ..inputs import open_input
     from ..viewer.app import make_server
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     patch = parse_texel(args.patch) if args.patch else None
     target, settings = load_target_and_settings(args, args.model)
-    compare = load_target(args.compare) if args.compare else None
+    compare = open_input(args.compare).target()[0] if args.compare else None
     server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:

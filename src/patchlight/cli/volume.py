@@ -9,7 +9,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..scene import is_builtin
 from ..volumes.probes import MAX_SEED, VolumeSettings
 from .options import add_scene_options, load_solved_from_args
 from .parser import finite_number, writes_output
@@ -59,6 +58,7 @@ def choose_grid(args, scene):
 
 def run(args) -> int:
     from ..imaging.io import check_output_dir, json_text, write_json
+    from ..inputs import open_input
     from ..outputs import staged_output
     from ..volumes import bake_volume, write_volume
     from ..volumes.io import DATA, HEADER
@@ -66,10 +66,9 @@ def run(args) -> int:
     settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
     check_output_dir(args.output)
     quiet = args.quiet or args.json
-    if is_builtin(args.scene) or not Path(args.scene).is_dir():  # a scene to bake first:
-        from ..scene import load_scene
-
-        choose_grid(args, load_scene(args.scene))  # refuse a bad grid before the bake
+    source = open_input(args.scene)
+    if source.kind in ("builtin", "scene"):  # a scene to bake first: refuse a bad grid before the bake
+        choose_grid(args, source.scene())
     solved = load_solved_from_args(args, quiet)
     grid = choose_grid(args, solved.scene)
     volume, stats = bake_volume(solved, grid, settings, quiet=quiet)

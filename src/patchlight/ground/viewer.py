@@ -16,10 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PatchlightError
-from ..scene import is_builtin
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 from ..bakedir import is_bake_dir
-from .files import MANIFEST, block_compressed, is_groundmap_dir, load_ground_map, read_manifest, read_texels
+from .files import MANIFEST, block_compressed, load_ground_map, read_manifest, read_texels
 
 FOG_START, FOG_END = 0.6, 1.6  # the demo's fog, in units of the map's width
 
@@ -108,28 +107,20 @@ def open_ground_map_dir(directory, manifest: dict | None = None) -> tuple[str | 
     return bake, inputs
 
 
-def view_target(spec: str, offset_mode: str | None = None) -> tuple[str, ViewerGroundMap | None]:
-    """For `patchlight render` and `view`: a ground map directory becomes its bake plus the map;
-    anything else passes through unchanged. offset_mode (--offset-mode) replaces the map's
-    recorded one; it needs a ground map directory (a target without one has no map to offset)."""
-    if offset_mode is not None and offset_mode not in OFFSET_MODES:
-        raise PatchlightError(f"--offset-mode {offset_mode}: choose from {', '.join(OFFSET_MODES)}")
-    if not is_builtin(spec) and Path(spec).is_dir() and is_groundmap_dir(spec):
-        manifest = read_manifest(spec)
-        shown = bake_of(spec, manifest)
-        where = Path(spec) / MANIFEST
-        if shown is None:
-            raise PatchlightError(f"{where}: names no bake to show the map over (written from Python without "
-                                  f"one); write it with write_groundmap(..., bake_dir=BAKE_DIR) or bake=(result, "
-                                  f"settings), or run `patchlight groundmap SCENE_OR_BAKE_DIR -o {spec}`")
-        if not is_bake_dir(shown):
-            raise PatchlightError(f"{where}: its bake {shown} is not a complete bake (moved or deleted?); "
-                                  f"make the map again with `patchlight groundmap`")
-        _, ground_map = open_ground_map_dir(spec, manifest)
-        if offset_mode is not None:
-            ground_map.offset_mode = offset_mode
-        return shown, ground_map
+def ground_map_target(directory, offset_mode: str | None = None) -> tuple[str, ViewerGroundMap]:
+    """For `patchlight render` and `view` (patchlight.inputs): a ground map directory's bake
+    (absolute) and its map; offset_mode, when given, replaces the map's recorded one."""
+    manifest = read_manifest(directory)
+    shown = bake_of(directory, manifest)
+    where = Path(directory) / MANIFEST
+    if shown is None:
+        raise PatchlightError(f"{where}: names no bake to show the map over (written from Python without "
+                              f"one); write it with write_groundmap(..., bake_dir=BAKE_DIR) or bake=(result, "
+                              f"settings), or run `patchlight groundmap SCENE_OR_BAKE_DIR -o {directory}`")
+    if not is_bake_dir(shown):
+        raise PatchlightError(f"{where}: its bake {shown} is not a complete bake (moved or deleted?); "
+                              f"make the map again with `patchlight groundmap`")
+    _, ground_map = open_ground_map_dir(directory, manifest)
     if offset_mode is not None:
-        raise PatchlightError(f"--offset-mode {offset_mode}: {spec} is not a ground map directory (the mode moves "
-                              f"where a baked ground map is sampled; make one with `patchlight groundmap`)")
-    return spec, None
+        ground_map.offset_mode = offset_mode
+    return shown, ground_map

@@ -2,6 +2,6 @@
 from .camera import Camera
 from .renderer import Renderer, RenderResult
 from .settings import target_settings
-from .target import Target, load_target
+from .target import Target
 
-__all__ = ["Camera", "RenderResult", "Renderer", "Target", "load_target", "target_settings"]
+__all__ = ["Camera", "RenderResult", "Renderer", "Target", "target_settings"]

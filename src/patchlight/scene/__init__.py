@@ -25,8 +25,6 @@ def load_scene(spec: str | Path) -> Scene:
     if is_builtin(spec):
         return BUILTIN_SCENES[spec]()
     path = Path(spec)
-    if path.is_dir() and (path / "scene.glb").exists():
-        path = path / "scene.glb"
     if path.suffix.lower() not in (".glb", ".gltf"):
         if not path.exists():
             raise PatchlightError(f"{spec}: no such file, and not a built-in scene ({', '.join(BUILTIN_SCENES)})")
