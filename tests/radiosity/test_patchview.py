@@ -10,7 +10,8 @@ from PIL import Image
 
 from hemicube_cameras import cpu_hemicube, frame_of, pinhole_cross
 
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
 from patchlight.imaging.io import read_exr

@@ -17,7 +17,8 @@ from browser_support import three_missing
 from hemicube_cameras import cpu_hemicube
 from PIL import Image
 
-from patchlight.bake import bake, write_bake
+from patchlight.bake import bake
+from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
 from patchlight.errors import PatchlightError
