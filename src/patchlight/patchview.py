@@ -139,13 +139,17 @@ class PatchViews:
         self.texels = read_bake_texels(bake_dir)
         if self.texels is None:
             raise PatchlightError(f"{bake_dir}: no texels.npz (bake it again to view from a patch)")
-        settings = json.loads(read_bytes(bake_dir / "bake.json"))["settings"]
+        try:
+            settings = json.loads(read_bytes(bake_dir / "bake.json"))["settings"]
+            method, seed = settings["gather"], int(settings["seed"])
+            size = int(settings["hemicube_size"] if method == "hemicube" else settings["rays"])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise PatchlightError(f"{bake_dir / 'bake.json'}: no readable gather settings ({exc})") from None
         scene = load_scene(bake_dir / "scene.glb")
         height, width = self.texels.status.shape
         self.patches, _ = rasterize(scene, width, height)
-        size = settings["hemicube_size"] if settings["gather"] == "hemicube" else settings["rays"]
         self.gatherer = Gatherer(self.patches, _tri_uv1(scene), Tracer(scene.positions, scene.indices), scene.sky,
-                                 settings["gather"], size, ray_offsets(scene, self.patches), settings["seed"])
+                                 method, size, ray_offsets(scene, self.patches), seed)
         self.size = size
 
     def at(self, x: int, y: int) -> PatchView:
