@@ -15,12 +15,13 @@ import numpy as np
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
+from .limits import available_memory
 from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
 from .radiosity.gather import Gatherer
-from .radiosity.memory import available_memory, check_bake_memory, form_factor_budget
+from .radiosity.memory import check_bake_memory, form_factor_budget
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene

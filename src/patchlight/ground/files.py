@@ -33,6 +33,7 @@ from PIL import Image
 
 from ..errors import PatchlightError
 from ..imaging.io import decode_image, read_bytes, write_bytes, write_json, write_png
+from ..limits import check_image_size
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 
 MANIFEST = "groundmap.json"
@@ -91,6 +92,7 @@ def decode_dds_bytes(data: bytes, where: str = "DDS data") -> np.ndarray:
     """(H, W, 4) uint8 texels of BC1/BC3 DDS bytes, decoded by Pillow."""
     try:
         with Image.open(io.BytesIO(data)) as img:
+            check_image_size(*img.size, 4, where)
             return np.asarray(img.convert("RGBA"))
     except (OSError, ValueError) as exc:
         raise PatchlightError(f"{where}: not a readable DDS file ({exc})") from exc

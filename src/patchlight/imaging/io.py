@@ -19,6 +19,7 @@ import io
 import json
 import os
 import secrets
+import stat
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -28,12 +29,13 @@ import OpenEXR
 from PIL import Image, UnidentifiedImageError
 
 from ..errors import PatchlightError
+from ..limits import check_image_size
 from . import _kernels
 
 ORIENTATION_KEY = "patchlight.orientation"
 ORIENTATION = "row 0 is v=0 (glTF UV convention)"
 
-_MAX_PIXELS = 1 << 30  # refuse headers that ask for more than a gigapixel
+Image.MAX_IMAGE_PIXELS = None  # limits.check_image_size decides, and says how to raise it
 
 
 # --------------------------------------------------------------------------- files
@@ -113,12 +115,19 @@ def _plain(value):
 
 
 def require_file(path) -> Path:
-    """`path` as a Path, or PatchlightError when it is missing, a directory or unreadable."""
+    """`path` as a Path, or PatchlightError when it is missing, not a regular file (a directory,
+    FIFO or device, which could block or never end) or unreadable."""
     path = Path(path)
-    if not path.exists():
-        raise PatchlightError(f"{path}: file not found")
-    if path.is_dir():
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise PatchlightError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise PatchlightError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(mode):
         raise PatchlightError(f"{path}: is a directory, not a file")
+    if not stat.S_ISREG(mode):
+        raise PatchlightError(f"{path}: not a regular file (a FIFO, socket or device)")
     if not os.access(path, os.R_OK):
         raise PatchlightError(f"{path}: cannot read (permission denied)")
     return path
@@ -167,11 +176,7 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
 
 def read_exr(path) -> np.ndarray:
     """(H, W, 3) float32 from an EXR's R, G, B channels (a Y-only image is repeated in RGB)."""
-    path = require_file(path)
-    try:
-        channels = OpenEXR.File(str(path), separate_channels=True).channels()
-    except RuntimeError as exc:
-        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+    path, channels = _exr_channels(path)
     if {"R", "G", "B"} <= channels.keys():
         names = ["R", "G", "B"]
     elif "Y" in channels:
@@ -181,13 +186,22 @@ def read_exr(path) -> np.ndarray:
     return np.stack([channels[n].pixels.astype(np.float32) for n in names], axis=-1)
 
 
+def _exr_channels(path) -> tuple[Path, dict]:
+    """The channels of an EXR file, its size checked against the limits before they are read."""
+    path = require_file(path)
+    try:  # the binding raises whatever a damaged file provokes (RuntimeError, ValueError, ...)
+        (x0, y0), (x1, y1) = OpenEXR.File(str(path), header_only=True).header()["dataWindow"]
+        check_image_size(int(x1) - int(x0) + 1, int(y1) - int(y0) + 1, 4, str(path))
+        return path, OpenEXR.File(str(path), separate_channels=True).channels()
+    except PatchlightError:
+        raise
+    except Exception as exc:
+        raise PatchlightError(f"{path}: not a readable OpenEXR file ({type(exc).__name__}: {exc})"[:300]) from None
+
+
 def read_exr_layers(path, names) -> list[np.ndarray]:
     """(H, W, 3) float32 of each named layer of an EXR (`write_exr_layers`; "" = R, G, B)."""
-    path = require_file(path)
-    try:
-        channels = OpenEXR.File(str(path), separate_channels=True).channels()
-    except RuntimeError as exc:
-        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
+    path, channels = _exr_channels(path)
     layers = []
     for name in names:
         keys = [f"{name}.{c}" if name else c for c in "RGB"]
@@ -224,6 +238,7 @@ def decode_image(data: bytes, where: str) -> np.ndarray:
     no colour conversion).  `where` names the source in error messages."""
     try:
         with Image.open(io.BytesIO(data)) as img:
+            check_image_size(*img.size, len(img.getbands()), where)
             img.load()
             return _pixels(img)
     except UnidentifiedImageError:
@@ -312,9 +327,10 @@ def _hdr_header(data: bytes, path: Path) -> tuple[int, int, bool, int]:
             or not tokens[1].isdigit() or not tokens[3].isdigit():
         shown = data[pos:end if end >= 0 else pos + 40].decode("latin-1")
         raise PatchlightError(f"{path}: unsupported .hdr resolution line {shown!r} (want '-Y H +X W')")
+    if len(tokens[1]) > 9 or len(tokens[3]) > 9 or int(tokens[1]) == 0 or int(tokens[3]) == 0:
+        raise PatchlightError(f"{path}: bad .hdr size {tokens[3].decode()} x {tokens[1].decode()}")
     height, width = int(tokens[1]), int(tokens[3])
-    if height == 0 or width == 0 or height * width > _MAX_PIXELS:
-        raise PatchlightError(f"{path}: bad .hdr size {width} x {height}")
+    check_image_size(width, height, 4, str(path))
     return height, width, tokens[0] == b"+Y", end + 1
 
 

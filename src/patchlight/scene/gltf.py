@@ -95,6 +95,7 @@ import pygltflib as gl
 from ..errors import PatchlightError
 from ..imaging.color import linear_to_srgb, srgb_to_linear
 from ..imaging.io import atomic_path, check_finite, decode_image, encode_png, json_text, read_bytes, read_environment
+from ..limits import load_json
 from .model import Light, Material, Objects, Provenance, Scene, vertex_normals
 from .sky import Sky
 
@@ -110,6 +111,12 @@ _COMPONENT_DTYPES = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtyp
 _NORMALIZED_MAX = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0}
 _INDEX_TYPES = (5121, 5123, 5125)
 _TYPE_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+_TOP_LEVEL_LISTS = ("accessors", "animations", "buffers", "bufferViews", "cameras", "images", "materials",
+                    "meshes", "nodes", "samplers", "scenes", "skins", "textures")
+_WHOLE_NUMBER_FIELDS = {"accessors": ("bufferView", "byteOffset", "componentType", "count"),
+                        "bufferViews": ("buffer", "byteOffset", "byteLength", "byteStride", "target"),
+                        "buffers": ("byteLength",), "images": ("bufferView",), "textures": ("sampler", "source"),
+                        "nodes": ("camera", "mesh", "skin")}
 _GLB_MAGIC, _CHUNK_JSON, _CHUNK_BIN = b"glTF", 0x4E4F534A, 0x004E4942
 _POINTS_AND_LINES = (0, 1, 2, 3)
 _TRIANGLES, _STRIP, _FAN = 4, 5, 6
@@ -162,20 +169,46 @@ def _read_document(path: Path) -> tuple[gl.GLTF2, bytes | None]:
         text, blob = _split_glb(data, path)
     else:
         text, blob = _json_text(data, path), None
-    try:
-        raw = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PatchlightError(f"{path}: not a glTF file (invalid JSON: {exc})") from exc
+    raw = load_json(text, str(path))
     if not isinstance(raw, dict) or not isinstance(raw.get("asset"), dict):
         raise PatchlightError(f"{path}: not a glTF file (JSON without an 'asset' object)")
     version = str(raw["asset"].get("version", ""))
     if not version.startswith("2."):
         raise PatchlightError(f"{path}: glTF version {version!r} is not supported (only 2.x)")
+    _check_structure(raw, path)
     try:
         doc = gl.GLTF2.from_json(text, infer_missing=True)
     except Exception as exc:  # pygltflib's decoder raises whatever the bad value provokes
         raise PatchlightError(f"{path}: malformed glTF ({type(exc).__name__}: {exc})") from exc
     return doc, blob
+
+
+def _check_structure(raw: dict, path: Path) -> None:
+    """The document's shape, before anything trusts it: top-level arrays are lists of objects,
+    indices, counts, offsets and lengths are whole numbers, extension lists hold names."""
+    def bad(what: str) -> PatchlightError:
+        return PatchlightError(f"{path}: malformed glTF ({what})"[:300])
+
+    if "scene" in raw and not _whole(raw["scene"]):
+        raise bad(f"'scene' must be an index, got {raw['scene']!r}")
+    for key in _TOP_LEVEL_LISTS:
+        items = raw.get(key, [])
+        if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+            raise bad(f"'{key}' must be a list of objects")
+        for n, item in enumerate(items):
+            for name in _WHOLE_NUMBER_FIELDS.get(key, ()):
+                if name in item and not _whole(item[name]):
+                    raise bad(f"{key}[{n}].{name} must be a whole number >= 0, got {item[name]!r}")
+    for key in ("extensionsUsed", "extensionsRequired"):
+        names = raw.get(key, [])
+        if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+            raise bad(f"'{key}' must be a list of extension names")
+    if not isinstance(raw.get("extensions", {}), dict):
+        raise bad("'extensions' must be an object")
+
+
+def _whole(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 2**53
 
 
 def _json_text(data: bytes, path: Path) -> str:
@@ -280,6 +313,7 @@ class _Importer:
         self.uses_default_material = False
         self._buffers: dict[int, bytes] = {}
         self._images: dict[int, np.ndarray] = {}
+        self._input_bytes: int | None = None
 
     def fail(self, what: str) -> PatchlightError:
         return PatchlightError(f"{self.path}: {what}")
@@ -432,14 +466,31 @@ class _Importer:
         width = _TYPE_WIDTHS.get(acc.type)
         if dtype is None or width is None:
             raise self.fail(f"{what}: unsupported componentType {acc.componentType} / type {acc.type!r}")
-        count = int(acc.count or 0)
+        count = acc.count or 0
         if acc.bufferView is None:
+            self._check_unbacked(count * width * dtype.itemsize, what)
             values = np.zeros((count, width), dtype)
         else:
             values = self._strided(acc.bufferView, acc.byteOffset or 0, count, width, dtype, what)
         if acc.sparse is not None:
             values = self._apply_sparse(acc.sparse, values, what)
         return values
+
+    def _check_unbacked(self, nbytes: int, what: str) -> None:
+        """An accessor without a bufferView is zeros (plus sparse substitutes), standing for data
+        as large as real attributes: it may not be larger than the file and its buffers, so a few
+        bytes cannot ask for gigabytes."""
+        if self._input_bytes is None:
+            self._input_bytes = self.path.stat().st_size
+            for index, buf in enumerate(self.doc.buffers or []):
+                if buf.uri is not None:
+                    try:
+                        self._input_bytes += len(self.buffer(index))
+                    except PatchlightError:
+                        pass
+        if nbytes > self._input_bytes:
+            raise self.fail(f"{what}: {nbytes:,} bytes without a bufferView, more than the "
+                            f"{self._input_bytes:,} bytes of the file and its buffers")
 
     def _apply_sparse(self, sparse: gl.Sparse, values: np.ndarray, what: str) -> np.ndarray:
         """Overwrite the listed elements with the sparse substitutes."""
