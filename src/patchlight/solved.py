@@ -79,6 +79,17 @@ def is_bake_dir(path: str | Path) -> bool:
     return not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in ("scene.glb", "lightmap.exr", "bake.json"))
 
 
+def check_lightmap(lightmap: np.ndarray, path: Path) -> np.ndarray:
+    """`lightmap` (H, W, 3) of a bake, or PatchlightError naming `path` and the texels whose
+    incident light is not finite and >= 0 (a damaged or hand-edited file)."""
+    bad = ~(np.isfinite(lightmap) & (lightmap >= 0)).all(axis=2)
+    if bad.any():
+        row, column = np.argwhere(bad)[0]
+        raise PatchlightError(f"{path}: {int(bad.sum())} texels are not finite and >= 0 (the first at row {row}, "
+                              f"column {column}: {lightmap[row, column].tolist()})")
+    return lightmap
+
+
 def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None, quiet: bool = True) -> SolvedScene:
     """A bake directory as written by `patchlight bake`, or a scene (file or built-in name)
     baked now with `settings`. sky, when given, replaces the scene's."""
@@ -90,7 +101,7 @@ def load_solved(spec: str | Path, settings: BakeSettings | None = None, sky=None
         scene = load_scene(Path(spec) / "scene.glb")
         if sky is not None:
             scene.sky = sky
-        lightmap = read_exr(Path(spec) / "lightmap.exr")
+        lightmap = check_lightmap(read_exr(Path(spec) / "lightmap.exr"), Path(spec) / "lightmap.exr")
         if scene.uv1 is None:
             raise PatchlightError(f"{spec}/scene.glb: no TEXCOORD_1 lightmap UVs")
         return SolvedScene(scene, lightmap, str(spec))
