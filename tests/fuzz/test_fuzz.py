@@ -7,24 +7,12 @@ from __future__ import annotations
 
 import time
 
-import pytest
-from fuzzing import Cases, Runner, Seeds, hostile_cases
+from fuzzing import Cases, hostile_cases
 
 SEED = 16
 CASES = 60
 BUDGET_S = 70  # the sample stops early on a slow machine; its cases come in a fixed order
 ELSEWHERE = {"a 300-character uri"}  # the uri resource policy of issue #17 refuses it; until then a traceback
-
-
-@pytest.fixture(scope="module")
-def runner():
-    with Runner() as runner:
-        yield runner
-
-
-@pytest.fixture(scope="module")
-def seeds(runner, tmp_path_factory):
-    return Seeds(tmp_path_factory.mktemp("seeds"), runner)
 
 
 def _report(outcomes) -> str:
