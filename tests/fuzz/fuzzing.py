@@ -143,7 +143,7 @@ class Seeds:
                      ["groundmap", str(self.bake), "-o", str(self.ground), *GROUND]):
             outcome = runner.run(Case("seed", argv, None))
             if outcome.status != 0:
-                raise RuntimeError(f"seed {argv[0]} failed: {outcome.stderr}")
+                raise RuntimeError(f"seed {argv[0]} failed ({outcome.signature or outcome.status}): {outcome.stderr}")
 
 
 # --------------------------------------------------------------------------- mutators
