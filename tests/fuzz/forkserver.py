@@ -83,9 +83,9 @@ def _watch(pid: int, seconds: float, mib: float) -> dict:
 
 
 def serve(seconds: float, mib: float) -> None:
-    import patchlight.cli.main as cli
+    from patchlight.cli.parser import build_parser
 
-    cli.build_parser()  # every subcommand's module, then what their work imports
+    build_parser()  # every subcommand's module, then what their work imports
     for module in PRELOAD:
         importlib.import_module(module)
     for line in sys.stdin:

@@ -20,6 +20,8 @@ import json
 import os
 import secrets
 import stat
+import sys
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -187,16 +189,42 @@ def read_exr(path) -> np.ndarray:
 
 
 def _exr_channels(path) -> tuple[Path, dict]:
-    """The channels of an EXR file, its size checked against the limits before they are read."""
+    """The channels of an EXR file, its size checked against the limits before they are read.
+    A damaged file is one PatchlightError: OpenEXR prints what it finds wrong (on stderr and
+    stdout, whether or not the read then fails), so that is caught and said."""
     path = require_file(path)
-    try:  # the binding raises whatever a damaged file provokes (RuntimeError, ValueError, ...)
-        (x0, y0), (x1, y1) = OpenEXR.File(str(path), header_only=True).header()["dataWindow"]
-        check_image_size(int(x1) - int(x0) + 1, int(y1) - int(y0) + 1, 4, str(path))
-        return path, OpenEXR.File(str(path), separate_channels=True).channels()
-    except PatchlightError:
-        raise
-    except Exception as exc:
-        raise PatchlightError(f"{path}: not a readable OpenEXR file ({type(exc).__name__}: {exc})"[:300]) from None
+    with _printing_caught() as printed:
+        try:  # the binding raises whatever a damaged file provokes (RuntimeError, ValueError, ...)
+            (x0, y0), (x1, y1) = OpenEXR.File(str(path), header_only=True).header()["dataWindow"]
+            check_image_size(int(x1) - int(x0) + 1, int(y1) - int(y0) + 1, 4, str(path))
+            channels, error = OpenEXR.File(str(path), separate_channels=True).channels(), None
+        except PatchlightError:
+            raise
+        except Exception as exc:
+            channels, error = None, f"{type(exc).__name__}: {exc}"
+    if printed or error:
+        what = printed[0].removeprefix(f"{path}: ") if printed else error
+        raise PatchlightError(f"{path}: not a readable OpenEXR file ({what})"[:300])
+    return path, channels
+
+
+@contextmanager
+def _printing_caught() -> Iterator[list[str]]:
+    """Collect what C libraries write to file descriptors 1 and 2 meanwhile, as lines, into the list."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved, lines = {fd: os.dup(fd) for fd in (1, 2)}, []
+    with tempfile.TemporaryFile() as sink:
+        for fd in saved:
+            os.dup2(sink.fileno(), fd)
+        try:
+            yield lines
+        finally:
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+            sink.seek(0)
+            lines.extend(line for line in sink.read().decode(errors="replace").splitlines() if line.strip())
 
 
 def read_exr_layers(path, names) -> list[np.ndarray]:
