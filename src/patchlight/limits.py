@@ -6,15 +6,14 @@ Each reader checks sizes here first, so such a file is one clear line, never a p
 kernel kills or a traceback.
 
 - JSON (`load_json`): nesting at most MAX_JSON_DEPTH deep, integers at most MAX_INT_DIGITS
-  digits (every count, offset and index fits in 64 bits), numbers finite (no NaN or Infinity
-  tokens, no 1e400).
+  digits (every count, offset and index fits in 64 bits). Non-finite numbers are left to the
+  readers, which say which field holds one.
 - Images: at most `max_image_pixels()` pixels once decoded (PATCHLIGHT_MAX_IMAGE_PIXELS raises it).
 - Arrays: `check_allocation` refuses what would not fit in the memory available now.
 """
 from __future__ import annotations
 
 import json
-import math
 import os
 import re
 
@@ -76,17 +75,17 @@ def check_image_size(width: int, height: int, channels: int, where: str) -> None
 
 def load_json(data: bytes | str, where: str):
     """Parse JSON text, refusing (PatchlightError) what is not JSON, nesting deeper than
-    MAX_JSON_DEPTH, integers longer than MAX_INT_DIGITS digits and non-finite numbers."""
+    MAX_JSON_DEPTH and integers longer than MAX_INT_DIGITS digits."""
     raw = data.encode("utf-8", "surrogatepass") if isinstance(data, str) else data
     depth = _depth(raw)
     if depth > MAX_JSON_DEPTH:
         raise PatchlightError(f"{where}: JSON nested {depth} deep, more than the limit of {MAX_JSON_DEPTH}")
     try:
-        return json.loads(data, parse_int=_integer, parse_float=_finite, parse_constant=_no_constant)
+        return json.loads(data, parse_int=_integer)
     except _NumberError as exc:
         raise PatchlightError(f"{where}: JSON {exc}") from None
     except (ValueError, UnicodeDecodeError) as exc:
-        raise PatchlightError(f"{where}: invalid JSON ({exc})") from None
+        raise PatchlightError(f"{where}: not JSON (invalid JSON: {exc})") from None
 
 
 def _depth(raw: bytes) -> int:
@@ -104,14 +103,3 @@ def _integer(text: str) -> int:
     if len(text.lstrip("-")) > MAX_INT_DIGITS:
         raise _NumberError(f"integer of {len(text.lstrip('-'))} digits, more than the limit of {MAX_INT_DIGITS}")
     return int(text)
-
-
-def _finite(text: str) -> float:
-    value = float(text)
-    if not math.isfinite(value):
-        raise _NumberError(f"number {text[:30]} is out of range")
-    return value
-
-
-def _no_constant(text: str):
-    raise _NumberError(f"{text} is not a JSON number")

@@ -80,12 +80,13 @@ def is_bake_dir(path: str | Path) -> bool:
 
 
 def check_lightmap(lightmap: np.ndarray, path: Path) -> np.ndarray:
-    """`lightmap` (H, W, 3) of a bake, or PatchlightError naming `path` and the texels whose
-    incident light is not finite and >= 0 (a damaged or hand-edited file)."""
-    bad = ~(np.isfinite(lightmap) & (lightmap >= 0)).all(axis=2)
+    """`lightmap` (H, W, 3) of a bake, or PatchlightError naming `path` and the texels that
+    are not finite (a damaged or hand-edited file). Small negative values, which
+    interpolation and denoising leave, are kept."""
+    bad = ~np.isfinite(lightmap).all(axis=2)
     if bad.any():
         row, column = np.argwhere(bad)[0]
-        raise PatchlightError(f"{path}: {int(bad.sum())} texels are not finite and >= 0 (the first at row {row}, "
+        raise PatchlightError(f"{path}: {int(bad.sum())} texels are not finite (the first at row {row}, "
                               f"column {column}: {lightmap[row, column].tolist()})")
     return lightmap
 

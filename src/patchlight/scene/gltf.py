@@ -198,7 +198,7 @@ def _check_structure(raw: dict, path: Path) -> None:
         for n, item in enumerate(items):
             for name in _WHOLE_NUMBER_FIELDS.get(key, ()):
                 if name in item and not _whole(item[name]):
-                    raise bad(f"{key}[{n}].{name} must be a whole number >= 0, got {item[name]!r}")
+                    raise bad(f"{key}[{n}]: {name} {item[name]!r} is not a whole number >= 0")
     for key in ("extensionsUsed", "extensionsRequired"):
         names = raw.get(key, [])
         if not isinstance(names, list) or not all(isinstance(name, str) for name in names):

@@ -168,11 +168,11 @@ def _data_name(header: dict, where: Path) -> str:
 
 
 def _check_light(values: np.ndarray, name: str, data: Path) -> None:
-    """Incident light is finite and >= 0: say where it is not."""
-    bad = ~(np.isfinite(values) & (values >= 0))
+    """Incident light is finite: say where it is not."""
+    bad = ~np.isfinite(values)
     if bad.any():
         first = np.unravel_index(int(np.argmax(bad)), values.shape)
-        raise PatchlightError(f"{data}: section {name} holds {int(bad.sum())} values that are not finite and >= 0 "
+        raise PatchlightError(f"{data}: section {name} holds {int(bad.sum())} values that are not finite "
                               f"(the first at {list(map(int, first))}: {float(values[first])})")
 
 
