@@ -97,6 +97,9 @@ async function smoke(url, outDir) {
       await page.waitForFunction((m) => document.getElementById('stats').textContent.startsWith(m), model);
       log.frames[model] = await page.textContent('#stats');
     }
+    for (const [x, y] of [[140, 300], [150, 310]]) await page.mouse.move(x, y);  // over the surface
+    await page.waitForFunction(() => document.getElementById('hover').textContent !== '');
+    log.hover = await page.textContent('#hover');
     await page.selectOption('#model', 'phong');
     for (const toggle of ['#normal-map', '#per-vertex', '#lightmap-specular']) await page.click(toggle);
     await page.selectOption('#light', '1');  // the showcase's point light

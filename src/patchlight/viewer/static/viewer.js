@@ -472,6 +472,12 @@ function bindInspection(viewer, canvas, redraw) {
     inspectAt(viewer, viewer.probe(ndcOf(e)));
   });
   canvas.addEventListener('dblclick', (e) => { if (viewer.rig.pivotAt(ndcOf(e))) redraw(); });
+  let hovered = null;  // the latest pointer position, probed once per animation frame
+  canvas.addEventListener('pointermove', (e) => {
+    if (e.buttons || !viewer.inspector.t) return;
+    if (!hovered) requestAnimationFrame(() => { $('hover').textContent = hoverLine(viewer.probe(hovered)); hovered = null; });
+    hovered = ndcOf(e);
+  });
   $('atlas').addEventListener('click', (e) => {
     const t = viewer.inspector;
     const r = e.target.getBoundingClientRect();
@@ -483,6 +489,13 @@ function bindInspection(viewer, canvas, redraw) {
     if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
     if (viewer.rig.key(e)) redraw();
   });
+}
+
+// One line about the texel under the pointer.
+function hoverLine(v) {
+  if (!v?.texel) return '';
+  const rgb = (c) => c.map((x) => x.toPrecision(3)).join(' ');
+  return `texel ${v.texel.join(',')}  chart ${v.chart}  ${v.status}  I ${rgb(v.I)}  B ${rgb(v.B)}`;
 }
 
 function inspectAt(viewer, probed) {
