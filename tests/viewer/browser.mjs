@@ -18,7 +18,8 @@
 //   node browser.mjs inspect URL SCRIPT.json OUT_DIR  the inspection tools with the page's own
 //                                                 controls and mouse: every step of the script's
 //                                                 `steps` ({select|click|slide: selector, value},
-//                                                 {sky: false} (hide it), {camera: {eye, target, fov}}, {probe: [x, y] canvas
+//                                                 {sky: false} (hide it), {camera: {eye, target, fov}},
+//                                                 {dblclick: [x, y]}, {press: key}, {probe: [x, y] canvas
 //                                                 pixels clicked}, {shot: name}) logs the page's state;
 //                                                 `shot` writes OUT_DIR/<name>.rgba (the canvas) and
 //                                                 <name>.png (a screenshot of the page)
@@ -217,7 +218,9 @@ async function inspect(url, scriptFile, outDir) {
       else if (step.click) await page.click(step.click);
       else if (step.slide) {
         await page.$eval(step.slide, (el, value) => { el.value = value; el.dispatchEvent(new Event('input')); }, String(step.value));
-      } else if (step.sky === false) {
+      } else if (step.dblclick) await page.mouse.dblclick(...step.dblclick);
+      else if (step.press) await page.keyboard.press(step.press);
+      else if (step.sky === false) {
         await page.evaluate(() => { window.patchlight.viewer.sky.visible = false; });
       } else if (step.camera) {
         await page.evaluate((c) => window.patchlight.look(c), step.camera);
