@@ -11,6 +11,7 @@ every reader turns a missing, unreadable or corrupt file into `PatchlightError("
 | write_png           | PNG through Pillow                     | (H, W), (H, W, 3|4) uint8      |
 | read_image          | PNG, JPEG (anything Pillow decodes)    | (H, W, C) float32 in [0, 1]    |
 | write_hdr, read_hdr | Radiance RGBE, RLE or flat scanlines   | (H, W, 3) float32              |
+| encode_hdr          | the bytes write_hdr writes             | (H, W, 3) float32              |
 | read_environment    | .exr or .hdr, by suffix                | (H, W, 3) float32, >= 0        |
 """
 from __future__ import annotations
@@ -320,17 +321,22 @@ def write_hdr(path, rgb: np.ndarray, rle: bool = True) -> None:
     Scanlines are run-length coded when `rle` and 8 <= W <= 32767, flat otherwise.
     Negative values are stored as 0; the relative error is below 1/256 of a pixel's peak channel.
     """
+    write_bytes(path, encode_hdr(rgb, rle))
+
+
+def encode_hdr(rgb: np.ndarray, rle: bool = True) -> bytes:
+    """The bytes of a Radiance .hdr file of (H, W, 3) linear RGB (see write_hdr)."""
     pixels = np.asarray(rgb)
     if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
-        raise ValueError(f"write_hdr wants an (H, W, 3) image, got shape {pixels.shape}")
+        raise ValueError(f"encode_hdr wants an (H, W, 3) image, got shape {pixels.shape}")
     if not np.all(np.isfinite(pixels)):
-        raise ValueError("write_hdr cannot store NaN or infinite values")
+        raise ValueError("encode_hdr cannot store NaN or infinite values")
     height, width = pixels.shape[:2]
     rgbe = _float_to_rgbe(pixels)
     header = (f"#?RADIANCE\n# written by patchlight\nFORMAT=32-bit_rle_rgbe\n\n"
               f"-Y {height} +X {width}\n").encode("ascii")
     body = _kernels.encode_scanlines(rgbe).tobytes() if rle and 8 <= width <= 0x7FFF else rgbe.tobytes()
-    write_bytes(path, header + body)
+    return header + body
 
 
 def _hdr_header(data: bytes, path: Path) -> tuple[int, int, bool, int]:
