@@ -69,7 +69,8 @@ class BakeResult:
 def _check_scene(scene: Scene) -> None:
     scene.validate()
     if not scene.has_light():
-        raise PatchlightError(f"{scene.label}: nothing lights the scene "
+        kept = " (the lights kept dynamic are not baked)" if len(scene.baked_lights) < len(scene.lights) else ""
+        raise PatchlightError(f"{scene.label}: nothing lights the scene{kept} "
                               "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
 
 
@@ -151,7 +152,7 @@ def directional_images(scene: Scene, patches: Patches, status: np.ndarray, gathe
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
     sums = gather_directions(gatherer, solution.excident, rows, advance)
-    add_direct(sums, patches, scene.lights, per_light)
+    add_direct(sums, patches, scene.baked_lights, per_light)
     return fill_lightmap(patches, sums.lightmap_values(mode), status)
 
 
@@ -226,7 +227,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
             points = texel_points(scene, patches, settings.texel_samples)
-            lights = [[light] for light in scene.lights] if settings.directional else [scene.lights]
+            lights = [[light] for light in scene.baked_lights] if settings.directional else [scene.baked_lights]
             per_light = [direct_light(points, patches.normal, group, tracer, settings.falloff, sun_angle,
                                       settings.sun_samples, offset) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
@@ -315,8 +316,9 @@ def write_bake(result: BakeResult, out_dir: Path, settings: BakeSettings) -> dic
 def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeSettings) -> dict:
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
     stale globs include BAKE_STALE; returns the summary."""
-    from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, write_bytes, write_exr, write_json, write_png
+    from .imaging.exposure import auto_exposure, exposed_png_pixels
+    from .imaging.io import write_bytes, write_exr, write_json, write_png
+    from .imaging.lightmap import encode_lightmap
     from .scene.gltf import save_baked_glb
 
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
@@ -325,9 +327,7 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     if settings.save_passes:
         pictures.update({f"pass_{i:02d}.png": exposed_png_pixels(image, k)
                          for i, image in enumerate(result.pass_images(), start=1)})
-    value_range = float(max(1.0, result.lightmap.max()))
-    meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
-            "threeLightMapIntensity": float(np.pi), "exposure": k}
+    meta = {"quantity": "incident light I (cosine-weighted mean radiance) = texel x scale", "exposure": k}
     extra = [] if result.directional is None else [result.directional.file_name]
     names = sorted(["lightmap.exr", "scene.glb", TEXELS_FILE, BAKE_MARKER, *pictures, *extra])
     sky = result.scene.sky
@@ -340,7 +340,6 @@ def stage_bake(result: BakeResult, staging: Path, out_dir: Path, settings: BakeS
     write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
     for name, pixels in pictures.items():
         write_png(staging / name, pixels)
-    save_baked_glb(result.scene, staging / "scene.glb", encode_png(rgbm_encode(result.lightmap, value_range)), meta,
-                   folder=out_dir)
+    save_baked_glb(result.scene, staging / "scene.glb", encode_lightmap(result.lightmap), meta, folder=out_dir)
     write_json(staging / BAKE_MARKER, summary)
     return summary

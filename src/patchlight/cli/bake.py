@@ -47,6 +47,9 @@ def register(sub) -> None:
 
 def add_bake_options(p: argparse.ArgumentParser) -> None:
     add_scene_options(p)
+    p.add_argument("--keep-lights", nargs="?", const="all", metavar="NAME,...",
+                   help="leave these lights (by name, or all when no names are given) out of the bake: they stay "
+                        "dynamic, unmarked in scene.glb, for the runtime to light")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--resolution", type=int, metavar="N", help="lightmap width = height in texels (16..8192)")
     size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T")
@@ -130,14 +133,32 @@ def sky_from_args(args):
 
 
 def load_lit_scene(args):
-    """The scene named on the command line, with the sky the flags give."""
+    """The scene named on the command line, with the sky the flags give and the lights
+    --keep-lights names kept dynamic."""
     from ..scene import load_scene
 
     scene = load_scene(args.scene)
     sky = sky_from_args(args)
     if sky is not None:
         scene.sky = sky
+    if getattr(args, "keep_lights", None):
+        scene.lights = keep_dynamic(scene.lights, args.keep_lights, scene.label)
     return scene
+
+
+def keep_dynamic(lights, names: str, where: str):
+    """The lights with those named in `names` ("all", or comma-separated light names) marked
+    dynamic (baked False); PatchlightError for a name no light has."""
+    from dataclasses import replace
+
+    if names == "all":
+        return [replace(light, baked=False) for light in lights]
+    wanted = {name.strip() for name in names.split(",") if name.strip()}
+    unknown = wanted - {light.name for light in lights}
+    if unknown:
+        known = ", ".join(sorted({light.name for light in lights if light.name})) or "none has a name"
+        raise PatchlightError(f"--keep-lights: {where} has no light named {', '.join(sorted(unknown))} (lights: {known})")
+    return [replace(light, baked=False) if light.name in wanted else light for light in lights]
 
 
 def run(args) -> int:
