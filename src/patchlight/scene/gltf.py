@@ -1091,7 +1091,7 @@ class _GlbWriter:
         self.doc.cameras.append(gl.Camera(type="perspective", perspective=gl.Perspective(
             yfov=math.radians(float(camera.get("fov", 60.0))), znear=0.01)))
         self.doc.nodes.append(gl.Node(name="camera", camera=len(self.doc.cameras) - 1, translation=_floats(eye),
-                                      rotation=_rotation_onto(np.asarray(camera["target"], np.float64) - eye)))
+                                      rotation=_look_rotation(np.asarray(camera["target"], np.float64) - eye)))
         return [len(self.doc.nodes) - 1]
 
     def lightmap(self, lightmap: EncodedLightmap, meta: dict) -> None:
@@ -1752,6 +1752,23 @@ def _rotation_onto(direction) -> list[float]:
     if cosine < -1.0 + 1e-12:  # opposite: half a turn about Y
         return [0.0, 1.0, 0.0, 0.0]
     q = np.array([*np.cross(forward, d), 1.0 + cosine])
+    return _floats(q / np.linalg.norm(q))
+
+
+def _look_rotation(direction) -> list[float]:
+    """Unit quaternion [x, y, z, w] turning a camera's -Z onto `direction` with its +Y as
+    near world +Y as it can be (no roll: the view the renderer's camera shows)."""
+    back = -np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    right = np.cross([0.0, 1.0, 0.0], back)
+    if np.linalg.norm(right) < 1e-9:  # looking straight up or down: any right will do
+        right = np.array([1.0, 0.0, 0.0])
+    right /= np.linalg.norm(right)
+    m = np.stack([right, np.cross(back, right), back], axis=1)  # columns: the camera's X, Y, Z
+    w = math.sqrt(max(0.0, 1.0 + np.trace(m))) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
+    q = np.array([x, y, z, w])
     return _floats(q / np.linalg.norm(q))
 
 
