@@ -3,7 +3,8 @@
 A wheel (`pip install .`) carries patchlight/viewer/three/: the files the viewer page imports
 (patchlight/viewer/three_files.py), copied from node_modules/three with three's LICENSE and
 package.json. When node_modules/three is missing, `npm ci` fetches it first (package-lock.json
-pins the version). Editable installs serve node_modules/three straight from the checkout."""
+pins the version). An editable install (`make demo`, `make test`) gets the same folder inside
+src/ (git ignores it); without npm it goes without, and the viewer then asks for `npm ci`."""
 from __future__ import annotations
 
 import runpy
@@ -30,14 +31,19 @@ def three_source() -> Path:
 
 
 class BuildWithThree(build_py):
-    """build_py, then three.js into build_lib/patchlight/viewer/three/."""
+    """build_py, then three.js into patchlight/viewer/three/ of the build (or of src/, editable)."""
 
     def run(self):
         super().run()
-        if self.editable_mode:
+        package = ROOT / "src" if self.editable_mode else Path(self.build_lib)
+        try:
+            source = three_source()
+        except (SystemExit, subprocess.CalledProcessError) as exc:
+            if not self.editable_mode:
+                raise
+            print(f"patchlight build: the viewer's three.js files are not bundled ({exc})")
             return
-        source = three_source()
-        target = Path(self.build_lib) / "patchlight" / "viewer" / LISTS["BUNDLED"]
+        target = package / "patchlight" / "viewer" / LISTS["BUNDLED"]
         for name in LISTS["THREE_FILES"] + LISTS["THREE_LICENSE"]:
             (target / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source / name, target / name)

@@ -48,7 +48,7 @@ async function withPage(url, outDir, body) {
     const page = context.pages()[0] || await context.newPage();
     page.on('console', (msg) => { if (msg.type() === 'error') log.errors.push(msg.text()); });
     page.on('pageerror', (err) => log.errors.push(String(err)));
-    page.on('requestfailed', (req) => log.errors.push(`request failed: ${req.url()}`));
+    page.on('requestfailed', (req) => log.errors.push(`request failed: ${req.url()} (${req.failure()?.errorText})`));
     page.on('response', (res) => { if (res.status() >= 400) log.errors.push(`HTTP ${res.status()}: ${res.url()}`); });
     await page.goto(url);
     await page.waitForFunction(() => document.body.dataset.ready, null, { timeout: 60000 });

@@ -10,10 +10,14 @@ THREE.ShaderChunk.tonemapping_pars_fragment = THREE.ShaderChunk.tonemapping_pars
   'vec3 CustomToneMapping( vec3 color ) { return color; }',
   'vec3 CustomToneMapping( vec3 color ) { return 1.0 - exp( - toneMappingExposure * max( color, 0.0 ) ); }');
 
-// The glTF scene of /scene/scene.glb, loaded through the plugin.
+// The glTF scene of /scene/scene.glb, parsed through the plugin (read whole with fetch, not
+// through three.js's streaming FileLoader: its piped body left Chromium reporting the
+// finished request as aborted now and then).
 export async function loadEngineScene() {
+  const response = await fetch('/scene/scene.glb');
+  if (!response.ok) throw new Error(`/scene/scene.glb: HTTP ${response.status}`);
   const loader = new GLTFLoader().register((parser) => new PatchlightPlugin(parser));
-  return (await loader.loadAsync('/scene/scene.glb')).scene;
+  return (await loader.parseAsync(await response.arrayBuffer(), '/scene/')).scene;
 }
 
 // Tone mapping for three.js's materials: the film curve at `exposure` while scene.glb is shown,
