@@ -20,6 +20,7 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
+from .radiosity.emitters import emitter_light, find_emitters, two_sided_triangles
 from .radiosity.gather import Gatherer
 from .radiosity.memory import check_bake_memory, form_factor_budget
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
@@ -224,6 +225,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("tracer"):
             tracer = Tracer(scene.positions, scene.indices)
         offset = ray_offsets(scene, patches)
+        size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
+        gatherer = Gatherer(patches, _tri_uv1(scene), two_sided_triangles(scene), tracer, scene.sky, settings.gather,
+                            size, offset, settings.seed)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
             points = texel_points(scene, patches, settings.texel_samples)
@@ -231,9 +235,13 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             per_light = [direct_light(points, patches.normal, group, tracer, settings.falloff, sun_angle,
                                       settings.sun_samples, offset) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
+            emitters = find_emitters(scene, patches)
+            side = math.isqrt(settings.emitter_samples)
+            if emitters is not None and side > 0:
+                direct += emitter_light(emitters, patches, gatherer.tri_uv1, texel_points(scene, patches, side), offset,
+                                        tracer, gatherer.rays_per_patch, settings.seed)
+                gatherer.emitters, gatherer.nee_samples = emitters, side * side
         rays_direct = tracer.rays_traced
-        size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
-        gatherer = Gatherer(patches, _tri_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
         gatherer.cluster = cluster
         budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
         ff = FormFactors(gatherer, budget)

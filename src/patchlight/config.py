@@ -14,6 +14,7 @@
 | first_accuracy    | ratio         | 0.5            | the sampler's first run, for the first passes (0..1; 0.5)       |
 | accuracy          | ratio         | 0.98           | final run: threshold = accuracy ** spacing (0..1; 0.98)         |
 | sun_samples       | rays / texel  | 16             | shadow rays over the sun's disc when its angle is > 0           |
+| emitter_samples   | rays / texel  | 16             | shadow rays to emissive triangles, n x n over the texel (0: off)|
 | texel_samples     | per axis      | 2              | direct light averaged over n x n points of each texel (1..4)    |
 | sun_angle         | degrees       | None           | override the sun's angular diameter (0 = hard; 0.53 real sun)   |
 | falloff           | str           | inverse-square | point/spot falloff when a light names none: or "range"         |
@@ -55,6 +56,7 @@ class BakeSettings:
     first_accuracy: float = 0.5
     accuracy: float = 0.98
     sun_samples: int = 16
+    emitter_samples: int = 16
     texel_samples: int = 2
     sun_angle: float | None = None
     falloff: str = "inverse-square"
@@ -91,6 +93,8 @@ class BakeSettings:
             (isinstance(self.hemicube_size, int) and 2 <= self.hemicube_size <= 512 and self.hemicube_size % 2 == 0,
              "hemicube size must be an even number in 2..512"),
             (isinstance(self.sun_samples, int) and self.sun_samples >= 1, "sun samples must be a whole number >= 1"),
+            (isinstance(self.emitter_samples, int) and 0 <= self.emitter_samples <= 1024,
+             "emitter samples must be a whole number in 0..1024"),
             (isinstance(self.texel_samples, int) and 1 <= self.texel_samples <= 4, "texel samples must be 1..4"),
             (self.sun_angle is None or (number(self.sun_angle) and 0 <= self.sun_angle < 90),
              "sun angle must lie in 0..90 degrees"),

@@ -56,6 +56,8 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather)
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N")
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help="stratified rays per patch")
+    p.add_argument("--emitter-samples", type=int, default=DEFAULTS.emitter_samples, metavar="N",
+                   help="shadow rays per texel to emissive surfaces (0: the gather alone finds them)")
     p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N")
     p.add_argument("--tolerance", type=finite_number, default=DEFAULTS.tolerance,
                    help="stop when the largest relative change still to come is below (default %(default)s)")
@@ -107,6 +109,7 @@ def settings_from_args(args) -> BakeSettings:
         raise PatchlightError(f"--max-memory {args.max_memory:g}: must lie in 0..{MAX_MEMORY_GIB} GiB")
     settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
                             gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
+                            emitter_samples=args.emitter_samples,
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
                             accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,
