@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1] / "src" / "patchlight"
 # Bottom first. A package may import only from layers below its own.
 LAYERS = (
     ("errors", "shaders"),  # shaders: GLSL files only
-    ("config", "progress", "texels"),  # texels: the format of a bake's texels.npz
+    ("config", "progress", "texels", "limits"),  # texels: the format of a bake's texels.npz
     ("imaging",),
     ("shading", "outputs"),  # outputs: folders written as one set, the writers' lock
     ("scene",),
@@ -27,7 +27,7 @@ LAYERS = (
     ("solved",),
     ("volumes", "ground", "render"),
     ("patchview",),  # the view from one texel of a bake, drawn as render draws pictures
-    ("viewer", "inputs"),  # inputs: what a command-line name or path stands for
+    ("viewer", "inputs", "blender"),  # inputs: what a command-line name or path stands for
     ("cli",),
     ("__init__",),  # the public API: patchlight.load_scene, bake, ...
 )

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the viewer and its browser tests need, only when it is missing:
 #   - Debian's chromium (/usr/bin/chromium) and node + npm, with apt-get;
-#   - three and playwright-core into node_modules/, with `npm ci` from package-lock.json.
+#   - three, playwright-core and gltf-validator into node_modules/, with `npm ci` from package-lock.json.
 # Safe to run again: with everything present it changes nothing. Usage: bash tools/setup_browser.sh
 set -euo pipefail
 
@@ -19,7 +19,8 @@ if [ "${#missing[@]}" -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
-if [ ! -f "$repo/node_modules/three/package.json" ] || [ ! -f "$repo/node_modules/playwright-core/package.json" ]; then
-  echo "setup_browser: npm ci (three, playwright-core)"
+if [ ! -f "$repo/node_modules/three/package.json" ] || [ ! -f "$repo/node_modules/playwright-core/package.json" ] \
+   || [ ! -f "$repo/node_modules/gltf-validator/package.json" ]; then
+  echo "setup_browser: npm ci (three, playwright-core, gltf-validator)"
   (cd "$repo" && npm ci --no-audit --no-fund --loglevel=error)
 fi

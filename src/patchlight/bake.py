@@ -15,12 +15,14 @@ from .atlas.lightmap import denoised_incident, fill_lightmap, stitch_seams, vali
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
+from .limits import available_memory
 from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
+from .radiosity.emitters import emitter_light, find_emitters, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
-from .radiosity.memory import available_memory, check_bake_memory, form_factor_budget
+from .radiosity.memory import check_bake_memory, form_factor_budget
 from .radiosity.sampling import gather_adaptive
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
@@ -65,7 +67,8 @@ class BakeResult:
 def _check_scene(scene: Scene) -> None:
     scene.validate()
     if not scene.has_light():
-        raise PatchlightError(f"{scene.label}: nothing lights the scene "
+        kept = " (the lights kept dynamic are not baked)" if len(scene.baked_lights) < len(scene.lights) else ""
+        raise PatchlightError(f"{scene.label}: nothing lights the scene{kept} "
                               "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
 
 
@@ -82,7 +85,7 @@ def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, gathe
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
     sums = gather_directions(gatherer, solution.excident, rows, advance)
-    add_direct(sums, patches, scene.lights, per_light)
+    add_direct(sums, patches, scene.baked_lights, per_light)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside)
 
 
@@ -122,16 +125,23 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("tracer"):
             tracer = Tracer(scene.positions, scene.indices)
         offset = ray_offsets(scene, patches)
+        size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
+        gatherer = Gatherer(patches, corner_uv1(scene), two_sided_triangles(scene), tracer, scene.sky, settings.gather,
+                            size, offset, settings.seed)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
             points = texel_points(scene, patches, settings.texel_samples)
-            lights = [[light] for light in scene.lights] if settings.directional else [scene.lights]
+            lights = [[light] for light in scene.baked_lights] if settings.directional else [scene.baked_lights]
             per_light = [direct_light(points, patches.normal, group, tracer, settings.falloff, sun_angle,
                                       settings.sun_samples, offset) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
+            emitters = find_emitters(scene, patches)
+            side = math.isqrt(settings.emitter_samples)
+            if emitters is not None and side > 0:
+                direct += emitter_light(emitters, patches, gatherer.tri_uv1, texel_points(scene, patches, side), offset,
+                                        tracer, gatherer.rays_per_patch, settings.seed)
+                gatherer.emitters, gatherer.nee_samples = emitters, side * side
         rays_direct = tracer.rays_traced
-        size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
-        gatherer = Gatherer(patches, corner_uv1(scene), tracer, scene.sky, settings.gather, size, offset, settings.seed)
         gatherer.cluster = cluster
         budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
         ff = FormFactors(gatherer, budget)

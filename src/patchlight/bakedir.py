@@ -86,10 +86,19 @@ def recorded_sun_angle(path: str | Path) -> float | None:
 
 
 def read_lightmap(path: str | Path) -> np.ndarray:
-    """(H, W, 3) float32 incident light of bake directory `path`."""
+    """(H, W, 3) float32 incident light of bake directory `path`; PatchlightError naming the
+    texels that are not finite (a damaged or hand-edited file). Small negative values, which
+    interpolation and denoising leave, are kept."""
     from .imaging.io import read_exr
 
-    return read_exr(Path(path) / LIGHTMAP)
+    where = Path(path) / LIGHTMAP
+    lightmap = read_exr(where)
+    bad = ~np.isfinite(lightmap).all(axis=2)
+    if bad.any():
+        row, column = np.argwhere(bad)[0]
+        raise PatchlightError(f"{where}: {int(bad.sum())} texels are not finite (the first at row {row}, "
+                              f"column {column}: {lightmap[row, column].tolist()})")
+    return lightmap
 
 
 def read_bake(path: str | Path) -> tuple:
@@ -156,8 +165,9 @@ def write_bake(result, out_dir: Path, settings) -> dict:
 def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
     stale globs include STALE; returns the summary."""
-    from .imaging.exposure import auto_exposure, exposed_png_pixels, rgbm_encode
-    from .imaging.io import encode_png, write_bytes, write_exr, write_json, write_png
+    from .imaging.exposure import auto_exposure, exposed_png_pixels
+    from .imaging.io import write_bytes, write_exr, write_json, write_png
+    from .imaging.lightmap import encode_lightmap
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
@@ -167,9 +177,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     if settings.save_passes:
         images.update({pass_picture(i): exposed_png_pixels(image, k)
                        for i, image in enumerate(result.pass_images(), start=1)})
-    value_range = float(max(1.0, result.lightmap.max()))
-    meta = {"rgbmRange": value_range, "quantity": "incident light I (cosine-weighted mean radiance)",
-            "threeLightMapIntensity": float(np.pi), "exposure": k}
+    meta = {"quantity": "incident light I (cosine-weighted mean radiance) = texel x scale", "exposure": k}
     extra = [] if result.directional is None else [DIRECTIONAL[result.directional.mode]]
     names = sorted([LIGHTMAP, SCENE, TEXELS_FILE, MARKER, *images, *extra])
     sky = result.scene.sky
@@ -182,7 +190,6 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     write_bytes(staging / TEXELS_FILE, result.texels().to_bytes())
     for name, pixels in images.items():
         write_png(staging / name, pixels)
-    save_baked_glb(result.scene, staging / SCENE, encode_png(rgbm_encode(result.lightmap, value_range)), meta,
-                   folder=out_dir)
+    save_baked_glb(result.scene, staging / SCENE, encode_lightmap(result.lightmap), meta, folder=out_dir)
     write_json(staging / MARKER, summary)
     return summary

@@ -128,6 +128,7 @@ class PatchViews:
     def __init__(self, bake_dir: str | Path):
         from . import bakedir
         from .atlas.raster import rasterize
+        from .radiosity.emitters import two_sided_triangles
         from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
         from .rays.tracer import Tracer
         from .texels import read_bake_texels
@@ -136,13 +137,19 @@ class PatchViews:
         self.texels = read_bake_texels(bake_dir)
         if self.texels is None:
             raise PatchlightError(f"{bake_dir}: no texels.npz (bake it again to view from a patch)")
-        settings = bakedir.read_summary(bake_dir)["settings"]
+        summary = bakedir.read_summary(bake_dir)
+        try:
+            settings = summary["settings"]
+            method, seed = settings["gather"], int(settings["seed"])
+            size = int(settings["hemicube_size"] if method == "hemicube" else settings["rays"])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise PatchlightError(f"{bake_dir / bakedir.MARKER}: no readable gather settings ({exc})") from None
         scene = bakedir.read_scene(bake_dir)
         height, width = self.texels.status.shape
         self.patches, _ = rasterize(scene, width, height)
-        size = settings["hemicube_size"] if settings["gather"] == "hemicube" else settings["rays"]
-        self.gatherer = Gatherer(self.patches, corner_uv1(scene), Tracer(scene.positions, scene.indices), scene.sky,
-                                 settings["gather"], size, ray_offsets(scene, self.patches), settings["seed"])
+        self.gatherer = Gatherer(self.patches, corner_uv1(scene), two_sided_triangles(scene),
+                                 Tracer(scene.positions, scene.indices), scene.sky, method, size,
+                                 ray_offsets(scene, self.patches), seed)
         self.size = size
 
     def at(self, x: int, y: int) -> PatchView:

@@ -64,4 +64,8 @@ def read_bake_texels(bake_dir: str | Path) -> Texels | None:
     h, w = texels.status.shape
     if texels.passes.ndim != 4 or texels.passes.shape[1:] != (h, w, 3) or texels.excident.shape != (h, w, 3):
         raise PatchlightError(f"{path}: arrays of mismatched shapes")
+    if not all(np.isfinite(a).all() for a in (texels.passes, texels.rho, texels.emission, texels.excident)):
+        raise PatchlightError(f"{path}: values that are not finite")
+    if texels.status.min() < 0 or texels.status.max() >= len(STATUS_NAMES):
+        raise PatchlightError(f"{path}: texel status outside 0..{len(STATUS_NAMES) - 1}")
     return texels

@@ -8,6 +8,8 @@ from patchlight.radiosity.hemicube import (delta_form_factors, lambert, multipli
                                            stratified_directions)
 from patchlight.rays.tracer import Tracer
 
+from form_factors import point_form_factor
+
 PARALLEL = 0.19982   # two unit squares, directly opposite, one unit apart
 PERPENDICULAR = 0.20004  # two unit squares sharing an edge at a right angle
 
@@ -89,29 +91,17 @@ def test_stratified_directions_are_cosine_distributed():
     assert (dirs[:, 2] ** 2).mean() == pytest.approx(0.5, abs=2e-3)
 
 
-def _point_form_factor(p, normal, polygon):
-    """Exact form factor from a differential area at p (unit normal) to a polygon (K, 3):
-    Lambert's contour integral, (1 / 2 pi) sum over edges of angle x n . (unit edge normal)."""
-    r = polygon - p
-    r /= np.linalg.norm(r, axis=1, keepdims=True)
-    total = 0.0
-    for a, b in zip(r, np.roll(r, -1, axis=0)):
-        c = np.cross(a, b)
-        total += np.arccos(np.clip(a @ b, -1, 1)) * (normal @ c) / np.linalg.norm(c)
-    return abs(total) / (2 * np.pi)
-
-
 @pytest.mark.parametrize("wall", [
     [[0, 1, 0], [1, 1, 0], [1, 1, 1], [0, 1, 1]],   # parallel, one unit above
     [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],   # perpendicular, sharing the edge z = 0
 ])
-def test_hemicube_error_against_exact_point_form_factors_falls_at_every_doubling(wall):
+def test_hemicube_error_against_exactpoint_form_factors_falls_at_every_doubling(wall):
     v, i = _square(wall)
     tracer = Tracer(v, i)
     rng = np.random.default_rng(3)
     points = np.stack([rng.uniform(0.05, 0.95, 40), np.full(40, 1e-6), rng.uniform(0.05, 0.95, 40)], axis=1)
     up = np.array([0.0, 1.0, 0.0])
-    exact = np.array([_point_form_factor(p, up, v.astype(float)) for p in points])
+    exact = np.array([point_form_factor(p, up, v.astype(float)) for p in points])
     errors = []
     for n in (8, 16, 32, 64, 128):
         estimate = np.array([_form_factor([p], up, tracer, *multiplier_map(n)) for p in points])

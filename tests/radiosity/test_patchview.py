@@ -4,6 +4,8 @@ is the picture five pinhole cameras at the patch take (rendered by the CPU rende
 `render --patch` writes it or says in one line what is wrong."""
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -14,6 +16,7 @@ from patchlight.bake import bake
 from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
+from patchlight.errors import PatchlightError
 from patchlight.imaging.io import read_exr
 from patchlight.patchview import PatchViews, _cross_pixels
 from patchlight.radiosity import adaptive
@@ -112,3 +115,44 @@ def test_render_patch_writes_the_picture_and_refuses_bad_texels(baked, tmp_path,
         assert err.count("\n") == 1 and "--patch" in err and "Traceback" not in err
     assert main(["render", "cornell", "--patch", "1,1", "-o", str(tmp_path / "bad.png")]) == 2
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_a_stratified_view_is_its_gather_as_dots_on_the_hemisphere(tmp_path):
+    """Stratified rays: the view still sums to the patch's gathered light, and its picture
+    is the rays seen from above, every dot inside the unit disk and none lost."""
+    settings = BakeSettings(resolution=32, gather="stratified", rays=64, tolerance=1e-4, stitch=False)
+    result = bake(load_scene("cornell"), settings)
+    write_bake(result, tmp_path / "bake", settings)
+    views = PatchViews(tmp_path / "bake")
+    p = result.patches
+    computed = np.flatnonzero(result.status == adaptive.COMPUTED)
+    for row in computed[:: max(1, len(computed) // 10)]:
+        view = views.at(int(p.texel_x[row]), int(p.texel_y[row]))
+        assert view.method == "stratified" and len(view.seen) == 64
+        np.testing.assert_allclose(view.gathered, result.solution.gathered[row], rtol=2e-3, atol=1e-5)
+        drawn = view.picture(np.ones(len(view.seen), bool), fill=False)
+        size = drawn.shape[0]
+        y, x = np.nonzero(drawn)
+        radius = np.hypot((x + 0.5) / size * 2 - 1, 1 - (y + 0.5) / size * 2)
+        assert radius.max() < 1 + 3 / size * 2 and drawn.sum() >= len(view.seen)
+        row_, col, _, _ = view.pixels()
+        np.testing.assert_allclose((col + 0.5) / size * 2 - 1, view.local[:, 0], atol=2 / size)
+        np.testing.assert_allclose(1 - (row_ + 0.5) / size * 2, view.local[:, 1], atol=2 / size)
+
+
+def test_a_damaged_texels_file_or_bake_json_is_one_line(baked, tmp_path):
+    _, out = baked
+    broken = tmp_path / "broken"
+    shutil.copytree(out, broken)
+    texels = read_bake_texels(out)
+    texels.excident[0, 0, 0] = np.nan
+    (broken / "texels.npz").write_bytes(texels.to_bytes())
+    with pytest.raises(PatchlightError, match="texels.npz: values that are not finite"):
+        read_bake_texels(broken)
+    (broken / "texels.npz").write_bytes(b"not a zip")
+    with pytest.raises(PatchlightError, match="texels.npz: not a readable texels file"):
+        read_bake_texels(broken)
+    shutil.copy(out / "texels.npz", broken / "texels.npz")
+    (broken / "bake.json").write_text('{"settings": {}}')
+    with pytest.raises(PatchlightError, match="bake.json: no readable gather settings"):
+        PatchViews(broken)

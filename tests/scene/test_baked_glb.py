@@ -16,7 +16,7 @@ from patchlight.bake import bake
 from patchlight.bakedir import write_bake
 from patchlight.cli.main import main
 from patchlight.config import BakeSettings
-from patchlight.imaging.io import decode_image, encode_png, read_exr, write_hdr
+from patchlight.imaging.io import decode_image, encode_png, read_exr, read_hdr, write_hdr
 from patchlight.scene import load_scene
 from patchlight.scene.gltf import load_gltf, save_baked_glb
 
@@ -185,8 +185,8 @@ def check_intact(source, out, source_folder):
     after, blob = read_glb(out)
     buffers = {0: blob}
     assert after["asset"] == before["asset"]
-    assert after["extensionsUsed"] == before["extensionsUsed"]
-    assert after["materials"] == before["materials"]
+    assert after["extensionsUsed"] == before["extensionsUsed"] + ["MOZ_lightmap", "MOZ_texture_rgbe"]
+    assert without_marks(after)["materials"] == before["materials"]
     assert after["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] == 1.0
     assert after["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] == 0.2
     assert after["materials"][0]["alphaMode"] == "BLEND"
@@ -197,7 +197,8 @@ def check_intact(source, out, source_folder):
         assert after["images"][number]["mimeType"] == "image/png"
         assert image_bytes(after, buffers, None, number) == image_bytes(before, before_buffers, source_folder, number)
     for key in ("cameras", "extensions", "scene"):
-        assert after[key] == before[key], key
+        assert without_marks(after)[key] == before[key], key
+    assert all(light["extras"]["baked"] for light in after["extensions"]["KHR_lights_punctual"]["lights"])
     assert after["extras"]["author"] == "someone"
     # the hierarchy, names, transforms and extras of every node; the box nodes on their own mesh
     assert len(after["nodes"]) == len(before["nodes"])
@@ -219,6 +220,20 @@ def check_intact(source, out, source_folder):
         np.testing.assert_array_equal(accessor_values(after, buffers, after["animations"][0]["samplers"][0][key]),
                                       accessor_values(before, before_buffers, before["animations"][0]["samplers"][0][key]))
     return after, buffers
+
+
+def without_marks(doc: dict) -> dict:
+    """A copy of doc without what the bake adds to materials (MOZ_lightmap) and lights (extras.baked)."""
+    doc = json.loads(json.dumps(doc))
+    for material in doc.get("materials", []):
+        material.get("extensions", {}).pop("MOZ_lightmap", None)
+        if material.get("extensions") == {}:
+            del material["extensions"]
+    for light in doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", []):
+        light.get("extras", {}).pop("baked", None)
+        if light.get("extras") == {}:
+            del light["extras"]
+    return doc
 
 
 def check_box_primitives(after, buffers):
@@ -280,22 +295,31 @@ def check_reloaded(source, out, baked_scene):
 
 
 def check_lightmap(after_doc, buffers, out_dir):
-    """What the viewer and three.js read: the root extras name the RGBM texture on TEXCOORD_1."""
+    """What three.js and other engines read: MOZ_lightmap on the lightmapped materials, naming a
+    texture on TEXCOORD_1 whose PNG source and MOZ_texture_rgbe .hdr hold I / scale."""
     info = after_doc["extras"]["patchlight"]["lightmap"]
-    assert info["texCoord"] == 1 and info["encoding"] == "RGBM"
-    assert info["threeLightMapIntensity"] == pytest.approx(math.pi)
+    assert info["texCoord"] == 1 and info["intensity"] == pytest.approx(math.pi * info["scale"])
     texture = after_doc["textures"][info["texture"]]
     assert texture["name"] == "patchlight_lightmap"
     sampler = after_doc["samplers"][texture["sampler"]]
     assert sampler == {"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}
     image = after_doc["images"][texture["source"]]
     assert image["mimeType"] == "image/png" and image["name"] == "patchlight_lightmap"
-    rgbm = decode_image(view_bytes(after_doc, buffers, image["bufferView"]), "lightmap")
-    decoded = rgbm[..., :3] * rgbm[..., 3:] * info["rgbmRange"]
+    hdr_image = after_doc["images"][texture["extensions"]["MOZ_texture_rgbe"]["source"]]
+    assert hdr_image["mimeType"] == "image/vnd.radiance"
     lightmap = read_exr(out_dir / "lightmap.exr")
-    assert info["rgbmRange"] == pytest.approx(max(1.0, float(lightmap.max())))
-    assert decoded.shape == lightmap.shape
-    np.testing.assert_allclose(decoded, lightmap, atol=info["rgbmRange"] / 255 * 1.01)
+    assert info["scale"] == pytest.approx(float(lightmap.max()))
+    png = decode_image(view_bytes(after_doc, buffers, image["bufferView"]), "lightmap")[..., :3] * info["scale"]
+    np.testing.assert_allclose(png, lightmap, atol=info["scale"] / 510 * 1.01)
+    hdr_path = out_dir / "check.hdr"
+    hdr_path.write_bytes(view_bytes(after_doc, buffers, hdr_image["bufferView"]))
+    hdr = read_hdr(hdr_path) * info["scale"]
+    hdr_path.unlink()
+    peak = lightmap.max(axis=-1, keepdims=True)  # RGBE: 8-bit mantissas under the texel's peak's exponent
+    assert np.all(np.abs(hdr - lightmap) <= peak / 256 + 1e-6 * info["scale"])
+    for primitive in (p for mesh in after_doc["meshes"] for p in mesh["primitives"] if "TEXCOORD_1" in p["attributes"]):
+        reference = after_doc["materials"][primitive["material"]]["extensions"]["MOZ_lightmap"]
+        assert reference == {"index": info["texture"], "texCoord": 1, "intensity": info["intensity"]}
     assert sum(t.get("name") == "patchlight_lightmap" for t in after_doc["textures"]) == 1
 
 

@@ -12,6 +12,7 @@ import pytest
 from patchlight.errors import PatchlightError
 from patchlight.imaging.color import srgb_to_linear
 from patchlight.imaging.io import encode_png, write_hdr
+from patchlight.imaging.lightmap import encode_lightmap
 from patchlight.scene.gltf import load_gltf, save_baked_glb
 from patchlight.scene.model import face_normals, vertex_normals
 
@@ -517,8 +518,8 @@ def rich_scene(tmp_path):
 
 def test_baked_glb_round_trip(tmp_path):
     scene = rich_scene(tmp_path)
-    lightmap = encode_png(np.full((4, 4, 4), 200, np.uint8))
-    meta = {"rgbmRange": np.float32(8.0), "width": 4, "height": 4, "exposure": np.float64(1.5)}
+    lightmap = encode_lightmap(np.full((4, 4, 3), 2.5, np.float32))
+    meta = {"width": 4, "height": 4, "exposure": np.float64(1.5)}
     path = save_baked_glb(scene, tmp_path / "baked.glb", lightmap, meta)
     back = load_gltf(path)
     np.testing.assert_array_equal(back.uv1.view(np.uint32), scene.uv1.view(np.uint32))
@@ -555,24 +556,34 @@ def glb_json(path) -> dict:
 def test_baked_glb_layout_for_three_js(tmp_path):
     scene = rich_scene(tmp_path)
     scene.provenance = None  # the flattened writer of built-in scenes (tests/scene/test_baked_glb.py: files)
-    lightmap = encode_png(np.full((2, 2, 4), 9, np.uint8))
-    path = save_baked_glb(scene, tmp_path / "baked.glb", lightmap, {"rgbmRange": 6, "exposure": 0.5})
+    lightmap = encode_lightmap(np.full((2, 2, 3), 6.0, np.float32))
+    path = save_baked_glb(scene, tmp_path / "baked.glb", lightmap, {"exposure": 0.5})
     doc = glb_json(path)
     info = doc["extras"]["patchlight"]["lightmap"]
-    assert info == {"texture": info["texture"], "texCoord": 1, "encoding": "RGBM", "rgbmRange": 6.0, "exposure": 0.5}
+    assert info == {"texture": info["texture"], "texCoord": 1, "scale": 6.0, "intensity": pytest.approx(6 * math.pi),
+                    "exposure": 0.5}
     texture = doc["textures"][info["texture"]]
     assert texture["name"] == "patchlight_lightmap"
-    image = doc["images"][texture["source"]]
-    assert image["mimeType"] == "image/png" and image["name"] == "patchlight_lightmap"
-    view = doc["bufferViews"][image["bufferView"]]
     data = path.read_bytes()
     bin_start = 20 + struct.unpack_from("<I", data, 12)[0] + 8
-    assert data[bin_start + view.get("byteOffset", 0):][:view["byteLength"]] == lightmap
+    hdr_source = texture["extensions"]["MOZ_texture_rgbe"]["source"]
+    for source, mime, payload in ((texture["source"], "image/png", lightmap.png),
+                                  (hdr_source, "image/vnd.radiance", lightmap.hdr)):
+        image = doc["images"][source]
+        assert image["mimeType"] == mime and image["name"].startswith("patchlight_lightmap")
+        view = doc["bufferViews"][image["bufferView"]]
+        assert data[bin_start + view.get("byteOffset", 0):][:view["byteLength"]] == payload
+    for material in doc["materials"]:
+        assert material["extensions"]["MOZ_lightmap"] == {"index": info["texture"], "texCoord": 1,
+                                                          "intensity": info["intensity"]}
+        assert material["extensions"]["KHR_materials_specular"] == {"specularFactor": 0.0}
+    assert all(light["extras"]["baked"] is True for light in doc["extensions"]["KHR_lights_punctual"]["lights"])
     assert doc["samplers"][texture["sampler"]]["wrapS"] == 33071
     assert len(doc["meshes"]) == 3  # one per material
     assert all(p["attributes"]["TEXCOORD_1"] == doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"]
                for m in doc["meshes"] for p in m["primitives"])
-    assert set(doc["extensionsUsed"]) == {"KHR_lights_punctual", "KHR_materials_emissive_strength"}
+    assert set(doc["extensionsUsed"]) == {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                          "KHR_materials_specular", "MOZ_lightmap", "MOZ_texture_rgbe"}
     assert doc["materials"][1]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] == 4.0
     assert max(doc["materials"][1]["emissiveFactor"]) <= 1.0
     assert doc["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] == 0.0
@@ -595,7 +606,7 @@ def test_baked_glb_groups_interleaved_materials_and_needs_uv1_for_a_lightmap(tmp
     np.testing.assert_array_equal(back.material_ids, scene.material_ids[grouped])
     scene.uv1 = None
     with pytest.raises(ValueError, match="uv1"):
-        save_baked_glb(scene, tmp_path / "no_uv1.glb", encode_png(np.zeros((1, 1, 4), np.uint8)), {"rgbmRange": 1})
+        save_baked_glb(scene, tmp_path / "no_uv1.glb", encode_lightmap(np.zeros((1, 1, 3), np.float32)))
     assert not (tmp_path / "no_uv1.glb").exists()
 
 

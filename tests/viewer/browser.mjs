@@ -18,7 +18,8 @@
 //   node browser.mjs inspect URL SCRIPT.json OUT_DIR  the inspection tools with the page's own
 //                                                 controls and mouse: every step of the script's
 //                                                 `steps` ({select|click|slide: selector, value},
-//                                                 {sky: false} (hide it), {camera: {eye, target, fov}}, {probe: [x, y] canvas
+//                                                 {sky: false} (hide it), {camera: {eye, target, fov}},
+//                                                 {dblclick: [x, y]}, {press: key}, {probe: [x, y] canvas
 //                                                 pixels clicked}, {shot: name}) logs the page's state;
 //                                                 `shot` writes OUT_DIR/<name>.rgba (the canvas) and
 //                                                 <name>.png (a screenshot of the page)
@@ -47,7 +48,7 @@ async function withPage(url, outDir, body) {
     const page = context.pages()[0] || await context.newPage();
     page.on('console', (msg) => { if (msg.type() === 'error') log.errors.push(msg.text()); });
     page.on('pageerror', (err) => log.errors.push(String(err)));
-    page.on('requestfailed', (req) => log.errors.push(`request failed: ${req.url()}`));
+    page.on('requestfailed', (req) => log.errors.push(`request failed: ${req.url()} (${req.failure()?.errorText})`));
     page.on('response', (res) => { if (res.status() >= 400) log.errors.push(`HTTP ${res.status()}: ${res.url()}`); });
     await page.goto(url);
     await page.waitForFunction(() => document.body.dataset.ready, null, { timeout: 60000 });
@@ -97,6 +98,9 @@ async function smoke(url, outDir) {
       await page.waitForFunction((m) => document.getElementById('stats').textContent.startsWith(m), model);
       log.frames[model] = await page.textContent('#stats');
     }
+    for (const [x, y] of [[140, 300], [150, 310]]) await page.mouse.move(x, y);  // over the surface
+    await page.waitForFunction(() => document.getElementById('hover').textContent !== '');
+    log.hover = await page.textContent('#hover');
     await page.selectOption('#model', 'phong');
     for (const toggle of ['#normal-map', '#per-vertex', '#lightmap-specular']) await page.click(toggle);
     await page.selectOption('#light', '1');  // the showcase's point light
@@ -214,7 +218,9 @@ async function inspect(url, scriptFile, outDir) {
       else if (step.click) await page.click(step.click);
       else if (step.slide) {
         await page.$eval(step.slide, (el, value) => { el.value = value; el.dispatchEvent(new Event('input')); }, String(step.value));
-      } else if (step.sky === false) {
+      } else if (step.dblclick) await page.mouse.dblclick(...step.dblclick);
+      else if (step.press) await page.keyboard.press(step.press);
+      else if (step.sky === false) {
         await page.evaluate(() => { window.patchlight.viewer.sky.visible = false; });
       } else if (step.camera) {
         await page.evaluate((c) => window.patchlight.look(c), step.camera);

@@ -54,6 +54,11 @@ STEPS = [
     *({"probe": p} for p in PROBES),
     {"shot": "single"},
     {"select": "#split", "value": "bake", "shot": "split"},
+    {"select": "#split", "value": ""},
+    {"slide": "#pass", "value": 1},
+    {"probe": PROBES[0]},
+    {"dblclick": PROBES[0]},
+    {"press": "w"},
 ]
 
 
@@ -241,8 +246,8 @@ def test_the_split_shows_the_second_bake_on_the_right_at_the_same_exposure(run):
     shows twice the radiance of the single view's right half, the left half is unchanged."""
     log, out, _ = run
     single, split = canvas(out, "single"), canvas(out, "split")
-    state = log["steps"][-1]["state"]
-    assert state["exposure"] == log["steps"][-2]["state"]["exposure"]
+    state = log["steps"][-6]["state"]
+    assert state["exposure"] == log["steps"][-7]["state"]["exposure"]
     half = WIDTH // 2
     assert np.array_equal(split[:, :half], single[:, :half])
     a, b = (linear(picture[:, half:, :3], state["exposure"]) @ LUMINANCE for picture in (single, split))
@@ -251,6 +256,30 @@ def test_the_split_shows_the_second_bake_on_the_right_at_the_same_exposure(run):
     ratio = np.median(b[usable] / a[usable])
     print(f"split: right half {ratio:.3f} x the single view's")
     assert ratio == pytest.approx(2, rel=0.03)
+
+
+def test_the_pass_slider_shows_each_pass(run):
+    log, _, target = run
+    entry = log["steps"][-3]
+    p = entry["probe"]["probe"]
+    x, y = p["texel"]
+    assert entry["state"]["pass"] == 1 and p["pass"]["k"] == 1
+    first = target.texels.passes[0][y, x].astype(np.float32)
+    np.testing.assert_array_equal(np.float32(p["pass"]["I"]), first)
+    assert (first < np.float32(p["I"])).all() and f"I after pass 1: {first[0]:.4g}"[:20] in entry["probe"]["text"]
+
+
+def test_double_click_orbits_about_that_point_and_keys_move_the_eye(run):
+    log, _, target = run
+    probed, pivoted, moved = (log["steps"][k] for k in (-3, -2, -1))
+    before, after = probed["state"]["camera"], pivoted["state"]["camera"]
+    np.testing.assert_allclose(after["eye"], before["eye"], atol=1e-9)
+    np.testing.assert_allclose(after["target"], probed["probe"]["probe"]["point"], atol=1e-6)
+    lo, hi = target.scene.bounds()
+    forward = np.subtract(after["target"], after["eye"])
+    step = 0.02 * np.linalg.norm(hi - lo) / 2 * forward / np.linalg.norm(forward)
+    np.testing.assert_allclose(moved["state"]["camera"]["eye"], np.add(after["eye"], step), atol=1e-6)
+    np.testing.assert_allclose(moved["state"]["camera"]["target"], np.add(after["target"], step), atol=1e-6)
 
 
 def test_compare_needs_a_bake_of_the_same_lightmap_uvs(baked, tmp_path, capsys):

@@ -40,6 +40,7 @@ def test_page_loads_and_every_model_can_be_picked_without_console_errors(smoke):
     for model in MODELS:
         assert log["frames"][model].startswith(model) and "ms/frame" in log["frames"][model]
     assert log["surfaces"] == ["", "light", "adaptive", "charts"]
+    assert log["hover"].startswith("texel ") and " I " in log["hover"]  # the texel under the pointer
     assert log["legend"] == ["uncovered", "gathered", "interpolated", "inside geometry", "chart border texels",
                              "every other texel (64 x 32)"]
 

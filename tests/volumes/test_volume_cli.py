@@ -117,10 +117,17 @@ def test_vertex_colours_survive_the_gltf_round_trip(cornell_bake, tmp_path, caps
     assert status == 0
     colors = load_gltf(out).colors
     expected = vertex_incident(load_solved(cornell_bake))
-    assert colors[:, :3].tobytes() == expected.tobytes()
+    scale = glb_json(out)["extras"]["patchlight"]["vertexLight"]["colorScale"]
+    assert scale == pytest.approx(float(expected.max())) and scale > 1.0  # glTF's COLOR_0 stays within 0..1
+    assert colors.min() >= 0.0 and colors.max() <= 1.0
+    np.testing.assert_allclose(colors[:, :3] * scale, expected, rtol=1e-6, atol=1e-7 * scale)  # the HDR light restored
     np.testing.assert_array_equal(colors[:, 3], 1.0)
-    assert colors[:, 0].max() > 1.0  # linear incident light, not clipped
     assert_every_material_unlit(out)
+
+
+def glb_json(path) -> dict:
+    data = path.read_bytes()
+    return json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
 
 
 def assert_every_material_unlit(path):
@@ -145,6 +152,7 @@ def test_vertex_colours_of_an_open_floor_under_a_uniform_sky_are_the_sky(tmp_pat
     assert status == 0 and json.loads(stdout)["vertices"] > 0
     colors = load_gltf(tmp_path / "out.glb").colors
     np.testing.assert_allclose(colors, np.tile([0.1, 0.4, 0.8, 1.0], (len(colors), 1)), rtol=1e-3)
+    assert glb_json(tmp_path / "out.glb")["extras"]["patchlight"]["vertexLight"]["colorScale"] == 1.0  # light below 1
     assert_every_material_unlit(tmp_path / "out.glb")
     assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary file left
 

@@ -24,6 +24,9 @@ def register(sub) -> None:
 def add_bake_options(p: argparse.ArgumentParser) -> None:
     """The bake's flags; their help texts, defaults and ranges come from BakeSettings' fields."""
     add_scene_options(p)
+    p.add_argument("--keep-lights", nargs="?", const="all", metavar="NAME,...",
+                   help="leave these lights (by name, or all when no names are given) out of the bake: they stay "
+                        "dynamic, unmarked in scene.glb, for the runtime to light")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--resolution", type=int, metavar="N", help=about("resolution"))
     size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T",
@@ -31,6 +34,8 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather, help=about("gather"))
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N", help=about("hemicube_size"))
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help=about("rays"))
+    p.add_argument("--emitter-samples", type=int, default=DEFAULTS.emitter_samples, metavar="N",
+                   help=about("emitter_samples"))
     p.add_argument("--passes", type=int, default=DEFAULTS.passes, metavar="N", help=about("passes"))
     p.add_argument("--tolerance", type=finite_number, default=DEFAULTS.tolerance, help=about("tolerance"))
     p.add_argument("--accuracy", type=finite_number, default=DEFAULTS.accuracy, help=about("accuracy"))
@@ -77,6 +82,7 @@ def settings_from_args(args) -> BakeSettings:
         raise PatchlightError(f"--max-memory {args.max_memory:g}: must lie in 0..{MAX_MEMORY_GIB} GiB")
     settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
                             gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
+                            emitter_samples=args.emitter_samples,
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,
                             accuracy=args.accuracy, first_accuracy=args.first_accuracy, sun_angle=args.sun_angle, falloff=args.falloff,
                             exposure=exposure, max_memory=int(args.max_memory * 2**30), seed=args.seed,

@@ -85,14 +85,32 @@ def sky_from_args(args):
 
 
 def load_lit_scene(args):
-    """The scene named on the command line, with the sky the flags give."""
+    """The scene named on the command line, with the sky the flags give and the lights
+    --keep-lights names kept dynamic."""
     from ..inputs import open_input
 
     scene = open_input(args.scene).scene()
     sky = sky_from_args(args)
     if sky is not None:
         scene.sky = sky
+    if getattr(args, "keep_lights", None):
+        scene.lights = keep_dynamic(scene.lights, args.keep_lights, scene.label)
     return scene
+
+
+def keep_dynamic(lights, names: str, where: str):
+    """The lights with those named in `names` ("all", or comma-separated light names) marked
+    dynamic (baked False); PatchlightError for a name no light has."""
+    from dataclasses import replace
+
+    if names == "all":
+        return [replace(light, baked=False) for light in lights]
+    wanted = {name.strip() for name in names.split(",") if name.strip()}
+    unknown = wanted - {light.name for light in lights}
+    if unknown:
+        known = ", ".join(sorted({light.name for light in lights if light.name})) or "none has a name"
+        raise PatchlightError(f"--keep-lights: {where} has no light named {', '.join(sorted(unknown))} (lights: {known})")
+    return [replace(light, baked=False) if light.name in wanted else light for light in lights]
 
 
 def load_target_and_settings(args, model: str | None):

@@ -32,7 +32,7 @@ def writes_output(run):
     return locked
 
 
-SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
+SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap", "blender")
 READS_SCENES = ("bake", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
 
 

@@ -2,8 +2,10 @@
 
 The vertex values are fitted to the solved patches around them (least squares over the
 triangles' interpolation, patches inside geometry left out; see patchlight.volumes.vertex).
-COLOR_0 = the file's vertex colour x incident light I, linear, above 1 where the light is
-bright: drawn unlit, base colour x COLOR_0 is the lit surface. So every material is marked
+COLOR_0 = the file's vertex colour x incident light I / colorScale, linear, within 0..1 as
+glTF requires (colorScale: the largest colour x I, at least 1, recorded in the root
+extras.patchlight.vertexLight; HDR light = COLOR_0.rgb x colorScale): drawn unlit, base colour
+x COLOR_0 is the lit surface, scaled. So every material is marked
 KHR_materials_unlit (in extensionsUsed): glTF viewers that support it (three.js, Babylon.js,
 Blender, the Khronos sample viewer) show base colour x COLOR_0 without lighting it again;
 others fall back to lit PBR, which counts the light twice. Emission is not drawn unlit."""
@@ -47,8 +49,9 @@ def run(args) -> int:
     started = time.perf_counter()
     solved = load_solved_from_args(args, quiet=args.quiet or args.json)
     incident = vertex_incident(solved)
-    save_vertex_lit_glb(with_vertex_light(solved.scene, incident), out)
-    summary = {"scene": solved.source, "output": str(out), "vertices": len(incident),
+    lit, scale = with_vertex_light(solved.scene, incident)
+    save_vertex_lit_glb(lit, out, scale)
+    summary = {"scene": solved.source, "output": str(out), "vertices": len(incident), "color_scale": scale,
                "incident_min": incident.min(axis=0).tolist(), "incident_max": incident.max(axis=0).tolist(),
                "incident_mean": incident.mean(axis=0).tolist(), "seconds": time.perf_counter() - started}
     if args.json:

@@ -33,6 +33,7 @@ from PIL import Image
 
 from ..errors import PatchlightError
 from ..imaging.io import decode_image, read_bytes, write_bytes, write_json, write_png
+from ..limits import check_image_size, load_json
 from ..shading.hemisphere_radiosity import ENCODINGS, OFFSET_MODES, GroundMapInputs
 
 MANIFEST = "groundmap.json"
@@ -91,6 +92,7 @@ def decode_dds_bytes(data: bytes, where: str = "DDS data") -> np.ndarray:
     """(H, W, 4) uint8 texels of BC1/BC3 DDS bytes, decoded by Pillow."""
     try:
         with Image.open(io.BytesIO(data)) as img:
+            check_image_size(*img.size, 4, where)
             return np.asarray(img.convert("RGBA"))
     except (OSError, ValueError) as exc:
         raise PatchlightError(f"{where}: not a readable DDS file ({exc})") from exc
@@ -125,10 +127,7 @@ def read_manifest(path) -> dict:
     every field a reader uses (check_manifest)."""
     path = Path(path)
     file = path / MANIFEST if path.is_dir() else path
-    try:
-        manifest = json.loads(read_bytes(file))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PatchlightError(f"{file}: not valid JSON ({exc})") from None
+    manifest = load_json(read_bytes(file), str(file))
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise PatchlightError(f"{file}: not a patchlight ground map manifest")
     if manifest.get("version") != VERSION:
@@ -223,7 +222,16 @@ def load_ground_map(directory, block_compressed: bool = False, manifest: dict | 
     manifest = manifest or read_manifest(directory)
     kind = "dds" if block_compressed else "png"
     files = manifest["files"]
-    inputs = GroundMapInputs(texture=read_texels(directory, files["color"][kind]) / np.float32(255.0),
+
+    def texels(name: str) -> np.ndarray:
+        """A map's texels in [0, 1], checked to be the manifest's size."""
+        values = read_texels(directory, name)
+        if values.shape[:2] != (manifest["size"],) * 2:
+            raise PatchlightError(f"{Path(directory) / name}: {values.shape[1]} x {values.shape[0]} texels, but "
+                                  f"{MANIFEST} says {manifest['size']} x {manifest['size']}")
+        return values / np.float32(255.0)
+
+    inputs = GroundMapInputs(texture=texels(files["color"][kind]),
                              U=np.asarray(manifest["mapping"]["U"], np.float32),
                              V=np.asarray(manifest["mapping"]["V"], np.float32), encoding=manifest["encoding"],
                              map_scale=float(manifest["map_scale"]),
@@ -231,7 +239,7 @@ def load_ground_map(directory, block_compressed: bool = False, manifest: dict | 
                              offset=float(manifest.get("offset", 1.0)),
                              offset_mode=manifest.get("offset_mode", "normal"))
     if "shadow" in files:
-        inputs.shadow = read_texels(directory, files["shadow"][kind]) / np.float32(255.0)
+        inputs.shadow = texels(files["shadow"][kind])
     inputs.validate()
     return inputs
 

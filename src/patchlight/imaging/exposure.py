@@ -26,13 +26,3 @@ def expose(values: np.ndarray, k: float) -> np.ndarray:
 def exposed_png_pixels(values: np.ndarray, k: float) -> np.ndarray:
     """(H, W, 3) uint8 sRGB picture of linear values exposed with k."""
     return np.round(linear_to_srgb(expose(values, k)) * 255).astype(np.uint8)
-
-
-def rgbm_encode(values: np.ndarray, value_range: float) -> np.ndarray:
-    """(H, W, 4) uint8 RGBM: rgb = value / (m range), m = alpha in (0, 1], all linear.
-    Decode: value = rgb * a * range."""
-    v = np.maximum(np.asarray(values, np.float64), 0.0) / value_range
-    m = np.clip(v.max(axis=-1, keepdims=True), 1e-6, 1.0)
-    m = np.ceil(m * 255) / 255
-    rgb = np.clip(v / m, 0.0, 1.0)
-    return np.round(np.concatenate([rgb, m], -1) * 255).astype(np.uint8)

@@ -12,6 +12,7 @@ every reader turns a missing, unreadable or corrupt file into `PatchlightError("
 | write_png           | PNG through Pillow                     | (H, W), (H, W, 3|4) uint8      |
 | read_image          | PNG, JPEG (anything Pillow decodes)    | (H, W, C) float32 in [0, 1]    |
 | write_hdr, read_hdr | Radiance RGBE, RLE or flat scanlines   | (H, W, 3) float32              |
+| encode_hdr          | the bytes write_hdr writes             | (H, W, 3) float32              |
 | read_environment    | .exr or .hdr, by suffix                | (H, W, 3) float32, >= 0        |
 """
 from __future__ import annotations
@@ -20,6 +21,9 @@ import io
 import json
 import os
 import secrets
+import stat
+import sys
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -29,12 +33,13 @@ import OpenEXR
 from PIL import Image, UnidentifiedImageError
 
 from ..errors import PatchlightError
+from ..limits import check_image_size
 from . import _kernels
 
 ORIENTATION_KEY = "patchlight.orientation"
 ORIENTATION = "row 0 is v=0 (glTF UV convention)"
 
-_MAX_PIXELS = 1 << 30  # refuse headers that ask for more than a gigapixel
+Image.MAX_IMAGE_PIXELS = None  # limits.check_image_size decides, and says how to raise it
 
 
 # --------------------------------------------------------------------------- files
@@ -114,12 +119,19 @@ def _plain(value):
 
 
 def require_file(path) -> Path:
-    """`path` as a Path, or PatchlightError when it is missing, a directory or unreadable."""
+    """`path` as a Path, or PatchlightError when it is missing, not a regular file (a directory,
+    FIFO or device, which could block or never end) or unreadable."""
     path = Path(path)
-    if not path.exists():
-        raise PatchlightError(f"{path}: file not found")
-    if path.is_dir():
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise PatchlightError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise PatchlightError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(mode):
         raise PatchlightError(f"{path}: is a directory, not a file")
+    if not stat.S_ISREG(mode):
+        raise PatchlightError(f"{path}: not a regular file (a FIFO, socket or device)")
     if not os.access(path, os.R_OK):
         raise PatchlightError(f"{path}: cannot read (permission denied)")
     return path
@@ -172,17 +184,9 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
             raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
 
 
-def _exr_channels(path) -> dict:
-    path = require_file(path)
-    try:
-        return OpenEXR.File(str(path), separate_channels=True).channels()
-    except RuntimeError as exc:
-        raise PatchlightError(f"{path}: not a readable OpenEXR file ({exc})") from exc
-
-
 def read_exr(path) -> np.ndarray:
     """(H, W, 3) float32 from an EXR's R, G, B channels (a Y-only image is repeated in RGB)."""
-    channels = _exr_channels(path)
+    path, channels = _exr_channels(path)
     if {"R", "G", "B"} <= channels.keys():
         names = ["R", "G", "B"]
     elif "Y" in channels:
@@ -192,9 +196,48 @@ def read_exr(path) -> np.ndarray:
     return np.stack([channels[n].pixels.astype(np.float32) for n in names], axis=-1)
 
 
+def _exr_channels(path) -> tuple[Path, dict]:
+    """The channels of an EXR file, its size checked against the limits before they are read.
+    A damaged file is one PatchlightError: OpenEXR prints what it finds wrong (on stderr and
+    stdout, whether or not the read then fails), so that is caught and said."""
+    path = require_file(path)
+    with _printing_caught() as printed:
+        try:  # the binding raises whatever a damaged file provokes (RuntimeError, ValueError, ...)
+            (x0, y0), (x1, y1) = OpenEXR.File(str(path), header_only=True).header()["dataWindow"]
+            check_image_size(int(x1) - int(x0) + 1, int(y1) - int(y0) + 1, 4, str(path))
+            channels, error = OpenEXR.File(str(path), separate_channels=True).channels(), None
+        except PatchlightError:
+            raise
+        except Exception as exc:
+            channels, error = None, f"{type(exc).__name__}: {exc}"
+    if printed or error:
+        what = printed[0].removeprefix(f"{path}: ") if printed else error
+        raise PatchlightError(f"{path}: not a readable OpenEXR file ({what})"[:300])
+    return path, channels
+
+
+@contextmanager
+def _printing_caught() -> Iterator[list[str]]:
+    """Collect what C libraries write to file descriptors 1 and 2 meanwhile, as lines, into the list."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved, lines = {fd: os.dup(fd) for fd in (1, 2)}, []
+    with tempfile.TemporaryFile() as sink:
+        for fd in saved:
+            os.dup2(sink.fileno(), fd)
+        try:
+            yield lines
+        finally:
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+            sink.seek(0)
+            lines.extend(line for line in sink.read().decode(errors="replace").splitlines() if line.strip())
+
+
 def read_exr_layers(path, names) -> list[np.ndarray]:
     """(H, W, 3) float32 of each named layer of an EXR (`write_exr_layers`; "" = R, G, B)."""
-    channels = _exr_channels(path)
+    path, channels = _exr_channels(path)
     layers = []
     for name in names:
         keys = [f"{name}.{c}" if name else c for c in "RGB"]
@@ -207,7 +250,7 @@ def read_exr_layers(path, names) -> list[np.ndarray]:
 
 def read_exr_alpha(path) -> np.ndarray | None:
     """(H, W) float32 of an EXR's A channel, or None when it has none."""
-    channels = _exr_channels(path)
+    _, channels = _exr_channels(path)
     return channels["A"].pixels.astype(np.float32) if "A" in channels else None
 
 
@@ -237,6 +280,7 @@ def decode_image(data: bytes, where: str) -> np.ndarray:
     no colour conversion).  `where` names the source in error messages."""
     try:
         with Image.open(io.BytesIO(data)) as img:
+            check_image_size(*img.size, len(img.getbands()), where)
             img.load()
             return _pixels(img)
     except UnidentifiedImageError:
@@ -290,17 +334,22 @@ def write_hdr(path, rgb: np.ndarray, rle: bool = True) -> None:
     Scanlines are run-length coded when `rle` and 8 <= W <= 32767, flat otherwise.
     Negative values are stored as 0; the relative error is below 1/256 of a pixel's peak channel.
     """
+    write_bytes(path, encode_hdr(rgb, rle))
+
+
+def encode_hdr(rgb: np.ndarray, rle: bool = True) -> bytes:
+    """The bytes of a Radiance .hdr file of (H, W, 3) linear RGB (see write_hdr)."""
     pixels = np.asarray(rgb)
     if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
-        raise ValueError(f"write_hdr wants an (H, W, 3) image, got shape {pixels.shape}")
+        raise ValueError(f"encode_hdr wants an (H, W, 3) image, got shape {pixels.shape}")
     if not np.all(np.isfinite(pixels)):
-        raise ValueError("write_hdr cannot store NaN or infinite values")
+        raise ValueError("encode_hdr cannot store NaN or infinite values")
     height, width = pixels.shape[:2]
     rgbe = _float_to_rgbe(pixels)
     header = (f"#?RADIANCE\n# written by patchlight\nFORMAT=32-bit_rle_rgbe\n\n"
               f"-Y {height} +X {width}\n").encode("ascii")
     body = _kernels.encode_scanlines(rgbe).tobytes() if rle and 8 <= width <= 0x7FFF else rgbe.tobytes()
-    write_bytes(path, header + body)
+    return header + body
 
 
 def _hdr_header(data: bytes, path: Path) -> tuple[int, int, bool, int]:
@@ -325,9 +374,10 @@ def _hdr_header(data: bytes, path: Path) -> tuple[int, int, bool, int]:
             or not tokens[1].isdigit() or not tokens[3].isdigit():
         shown = data[pos:end if end >= 0 else pos + 40].decode("latin-1")
         raise PatchlightError(f"{path}: unsupported .hdr resolution line {shown!r} (want '-Y H +X W')")
+    if len(tokens[1]) > 9 or len(tokens[3]) > 9 or int(tokens[1]) == 0 or int(tokens[3]) == 0:
+        raise PatchlightError(f"{path}: bad .hdr size {tokens[3].decode()} x {tokens[1].decode()}")
     height, width = int(tokens[1]), int(tokens[3])
-    if height == 0 or width == 0 or height * width > _MAX_PIXELS:
-        raise PatchlightError(f"{path}: bad .hdr size {width} x {height}")
+    check_image_size(width, height, 4, str(path))
     return height, width, tokens[0] == b"+Y", end + 1
 
 

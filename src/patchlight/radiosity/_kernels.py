@@ -10,36 +10,170 @@ LOST = -3       # the hit's lightmap texel is covered by no patch
 NEIGHBOURS = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)
 
 
+@nb.njit(cache=True, inline="always")
+def _patch_at(t, u, v, tri_uv1, width, height, index):
+    """The patch under point (u, v) (barycentrics of corners 1 and 2) of triangle t: the
+    lightmap texel under its TEXCOORD_1, or the nearest covered texel of its 3 x 3
+    neighbourhood (the four sides, then the corners); LOST when none is covered."""
+    w0 = 1.0 - u - v
+    su = w0 * tri_uv1[t, 0, 0] + u * tri_uv1[t, 1, 0] + v * tri_uv1[t, 2, 0]
+    sv = w0 * tri_uv1[t, 0, 1] + u * tri_uv1[t, 1, 1] + v * tri_uv1[t, 2, 1]
+    x = min(max(int(su * width), 0), width - 1)
+    y = min(max(int(sv * height), 0), height - 1)
+    found = index[y, x]
+    for k in range(8):
+        if found >= 0:
+            break
+        yy, xx = y + NEIGHBOURS[k, 0], x + NEIGHBOURS[k, 1]
+        if 0 <= yy < height and 0 <= xx < width:
+            found = index[yy, xx]
+    return found if found >= 0 else LOST
+
+
 @nb.njit(cache=True, nogil=True)
-def resolve_hits(tri, u, v, front, tri_uv1, width, height, index):
+def resolve_hits(tri, u, v, front, two_sided, tri_uv1, width, height, index):
     """The item buffer: the patch each ray sees, or SKY / BACK_FACE / LOST. (R,) i32.
 
-    tri, u, v, front: the tracer's hits; tri_uv1: (T, 3, 2) lightmap UVs of each triangle's
-    corners; index: (H, W) patch id per texel. A hit on an uncovered texel takes the nearest
-    covered texel of its 3 x 3 neighbourhood.
+    tri, u, v, front: the tracer's hits; two_sided: (T,) bool, triangles whose back is an
+    ordinary surface (glTF doubleSided): a hit on it is a hit, never BACK_FACE; tri_uv1:
+    (T, 3, 2) lightmap UVs of each triangle's corners; index: (H, W) patch id per texel.
     """
     out = np.empty(tri.shape[0], np.int32)
     for i in range(tri.shape[0]):
         t = tri[i]
         if t < 0:
             out[i] = SKY
-            continue
-        if not front[i]:
+        elif not front[i] and not two_sided[t]:
             out[i] = BACK_FACE
-            continue
-        w0 = 1.0 - u[i] - v[i]
-        su = w0 * tri_uv1[t, 0, 0] + u[i] * tri_uv1[t, 1, 0] + v[i] * tri_uv1[t, 2, 0]
-        sv = w0 * tri_uv1[t, 0, 1] + u[i] * tri_uv1[t, 1, 1] + v[i] * tri_uv1[t, 2, 1]
-        x = min(max(int(su * width), 0), width - 1)
-        y = min(max(int(sv * height), 0), height - 1)
-        found = index[y, x]
-        for k in range(8):  # nearest first: the four sides, then the corners
-            if found >= 0:
-                break
-            yy, xx = y + NEIGHBOURS[k, 0], x + NEIGHBOURS[k, 1]
-            if 0 <= yy < height and 0 <= xx < width:
-                found = index[yy, xx]
-        out[i] = found if found >= 0 else LOST
+        else:
+            out[i] = _patch_at(t, u[i], v[i], tri_uv1, width, height, index)
+    return out
+
+
+@nb.njit(cache=True, inline="always")
+def _hash_uniform(key, dim):
+    """A uniform float in [0, 1) from two integers (splitmix64 of their mix): the same
+    numbers for the same texel and sample, whichever thread or chunk draws them."""
+    z = np.uint64(key) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(dim) * np.uint64(0xD1B54A32D192ED03)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z = z ^ (z >> np.uint64(31))
+    return float(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _permutation(n, key, dim):
+    """A pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform)."""
+    perm = np.arange(n)
+    for i in range(n - 1, 0, -1):
+        j = int(_hash_uniform(key, dim + i) * (i + 1))
+        perm[i], perm[j] = perm[j], perm[i]
+    return perm
+
+
+@nb.njit(cache=True, inline="always")
+def power_heuristic(n_a, pdf_a, n_b, pdf_b):
+    """Veach's power heuristic (beta 2): the weight of technique a, n_a samples at pdf_a,
+    beside technique b; weights of a and b for the same direction sum to 1."""
+    a = n_a * pdf_a
+    b = n_b * pdf_b
+    return a * a / (a * a + b * b) if a > 0.0 else 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em_two_sided, area,
+                 tri_uv1, width, height, index, emission, gather_rays, seed):
+    """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
+
+    points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
+    and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
+    cumulative share of emitted power; em_tri (M,) scene triangle ids; corners (M, 3, 3);
+    em_normal (M, 3); em_two_sided (M,); area (M,) m^2. Sample j of a texel picks an emitter
+    by power with its stratum of K (a per-texel permutation pairs strata with points), a point
+    uniform on it, and reads the radiance of the emitter's patch there (tri_uv1, index,
+    emission: what the gather sees). Returns origins, dirs (R * K, 3) f32, tmax (R * K,) f32
+    and each ray's incident light if unblocked (R * K, 3) f32: Le cos / (pi p) / K, p the
+    solid-angle pdf, MIS-weighted against `gather_rays` cosine rays (power heuristic).
+    """
+    r_count, k_count = points.shape[0], points.shape[1]
+    n = r_count * k_count
+    origins = np.empty((n, 3), np.float32)
+    dirs = np.zeros((n, 3), np.float32)
+    tmax = np.zeros(n, np.float32)
+    value = np.zeros((n, 3), np.float32)
+    m = cdf.shape[0]
+    for r in range(r_count):
+        p = rows[r]
+        key = np.int64(p) * 1000003 + seed
+        perm_pick = _permutation(k_count, key, 0)
+        perm_point = _permutation(k_count, key, k_count)
+        nx = normal[p].astype(np.float64)
+        for j in range(k_count):
+            i = r * k_count + j
+            o = points[r, j] + lift[p] * nx
+            for a in range(3):
+                origins[i, a] = o[a]
+            pick = (perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j)) / k_count
+            e = min(np.searchsorted(cdf, pick, side="right"), m - 1)
+            lo = cdf[e - 1] if e > 0 else 0.0
+            share = cdf[e] - lo
+            if share <= 0.0:
+                continue
+            s1 = np.sqrt(min(max((pick - lo) / share, 0.0), 1.0))
+            s2 = (perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1)) / k_count
+            bu, bv = s1 * (1.0 - s2), s1 * s2
+            y = (1.0 - bu - bv) * corners[e, 0] + bu * corners[e, 1] + bv * corners[e, 2]
+            d = y - o
+            dist = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            if dist <= 0.0:
+                continue
+            d /= dist
+            cos_r = nx[0] * d[0] + nx[1] * d[1] + nx[2] * d[2]
+            cos_l = -(em_normal[e, 0] * d[0] + em_normal[e, 1] * d[1] + em_normal[e, 2] * d[2])
+            if em_two_sided[e]:
+                cos_l = abs(cos_l)
+            if cos_r <= 0.0 or cos_l <= 0.0:
+                continue
+            s = _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
+            if s < 0:
+                continue
+            pdf = share / area[e] * dist * dist / cos_l
+            w = power_heuristic(k_count, pdf, gather_rays, cos_r / np.pi)
+            f = cos_r / (np.pi * pdf) * w / k_count
+            for a in range(3):
+                dirs[i, a] = d[a]
+                value[i, a] = f * emission[s, a]
+            tmax[i] = dist * (1.0 - 1e-4)
+    return origins, dirs, tmax, value
+
+
+@nb.njit(cache=True, nogil=True)
+def emission_seen(seen, tri, dist, dirs, local_dirs, weights, emission, pdf_area, tri_normal, two_sided,
+                  nee_samples):
+    """(R, 3) f32: the emitted light each of R patches' D gather rays see, MIS-weighted
+    against `nee_samples` next-event samples per texel (power heuristic; emitter_rays is the
+    other half). seen (R * D,) as item_buffer_rows takes it; tri, dist: the rays' hit
+    triangles and distances; dirs (R * D, 3); local_dirs (D, 3) with z along the normal;
+    weights (D,); emission (N, 3); pdf_area (T,) the next-event pdf per m^2 of each
+    triangle (0: never sampled); tri_normal (T, 3); two_sided (T,)."""
+    d = weights.shape[0]
+    rows = seen.shape[0] // d
+    out = np.zeros((rows, 3), np.float32)
+    for r in range(rows):
+        for j in range(d):
+            i = r * d + j
+            s = seen[i]
+            if s < 0 or (emission[s, 0] <= 0.0 and emission[s, 1] <= 0.0 and emission[s, 2] <= 0.0):
+                continue
+            t = tri[i]
+            w = 1.0
+            if pdf_area[t] > 0.0:
+                cos_l = -(tri_normal[t, 0] * dirs[i, 0] + tri_normal[t, 1] * dirs[i, 1] + tri_normal[t, 2] * dirs[i, 2])
+                cos_l = max(abs(cos_l), 1e-12)
+                pdf = pdf_area[t] * dist[i] * dist[i] / cos_l
+                w = power_heuristic(d, local_dirs[j, 2] / np.pi, nee_samples, pdf)
+            for c in range(3):
+                out[r, c] += weights[j] * w * emission[s, c]
     return out
 
 

@@ -2,9 +2,10 @@
 cosine rays), and the item buffer turns what each ray hits into a patch id or the sky.
 
 One patch's row of the form-factor matrix F holds the weight of every patch it sees (the
-multiplier-map weights of the pixels that see it, summed), and its sky term S the weighted
-sky radiance of the rays that escaped. Geometry does not change between passes, so F is
-traced once and every pass is a sparse product: I = D + S + F B.
+multiplier-map weights of the pixels that see it, summed), and its constant term S the
+weighted sky radiance of the rays that escaped plus the emission of the emitters they hit
+(its MIS share, see emitters.py). Geometry does not change between passes, so F is traced
+once and every pass is a sparse product of the reflected light: I = D + S + F (B - E).
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from ..rays.tracer import Tracer
 from ..scene.model import Scene
 from . import _kernels
 from ._kernels import BACK_FACE, LOST, SKY  # what a ray of the item buffer saw, beside a patch id
+from .emitters import Emitters
 from .hemicube import multiplier_map, stratified_directions
 
 FLOAT32_REACH = 1e-5      # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
@@ -44,7 +46,7 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
 
 @dataclass
 class GatherRows:
-    """Rows of the gather for some patches. F: (R, N) CSR f32; S: (R, 3) f32 sky term;
+    """Rows of the gather for some patches. F: (R, N) CSR f32; S: (R, 3) f32 constant term;
     back_fraction: (R,) share of rays that hit back faces; lost: rays on uncovered texels."""
 
     F: sp.csr_matrix
@@ -57,12 +59,18 @@ class Gatherer:
     """Traces gather rays for chosen patches of one scene.
 
     method: "hemicube" (size = pixels across the front face) or "stratified" (size = rays).
+    two_sided: (T,) bool, triangles whose back faces are ordinary surfaces (doubleSided).
+    emitters: the scene's `Emitters` when the direct stage samples them with `nee_samples`
+    shadow rays per texel; a ray that hits an emitter then counts its emission with the
+    complementary MIS weight into the constant term S. None: the gather alone sees emitters.
     """
 
-    def __init__(self, patches: Patches, tri_uv1: np.ndarray, tracer: Tracer, sky, method: str,
-                 size: int, offset: np.ndarray, seed: int = 1):
-        self.patches, self.tri_uv1, self.tracer, self.sky = patches, tri_uv1, tracer, sky
+    def __init__(self, patches: Patches, tri_uv1: np.ndarray, two_sided: np.ndarray, tracer: Tracer, sky,
+                 method: str, size: int, offset: np.ndarray, seed: int = 1, emitters: Emitters | None = None,
+                 nee_samples: int = 0):
+        self.patches, self.tri_uv1, self.two_sided, self.tracer, self.sky = patches, tri_uv1, two_sided, tracer, sky
         self.method, self.seed, self.offset = method, seed, offset
+        self.emitters, self.nee_samples = emitters, nee_samples
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
         elif method == "stratified":
@@ -87,7 +95,7 @@ class Gatherer:
         """(R,) share of PROBE_RAYS cosine rays from each patch of `rows` that hit back faces:
         a cheap look before a patch inside a wall or under an object pays for its gather."""
         def probe(chunk):
-            seen, _ = self._see(chunk, self.probe_dirs)
+            seen, _, _ = self._see(chunk, self.probe_dirs)
             return back_share(seen.reshape(len(chunk), -1) == BACK_FACE)
 
         parts = self.tracer.map(probe, self._chunks(rows, PROBE_RAYS))
@@ -109,7 +117,7 @@ class Gatherer:
                           sum(p.lost for p in parts))
 
     def product(self, rows: np.ndarray, B: np.ndarray) -> np.ndarray:
-        """(R, 3) the rows `rows` of F B, traced again chunk by chunk and never stored: the
+        """(R, 3) the rows `rows` of F B (B: the reflected light, emission is in S), traced again chunk by chunk and never stored: the
         re-gathering pass of a bake whose F does not fit in memory (runs here, not on Ray)."""
         B = np.ascontiguousarray(B, np.float32)
         parts = self.tracer.map(lambda chunk: _kernels.item_buffer_times(self._see(chunk, self.dirs)[0],
@@ -119,27 +127,39 @@ class Gatherer:
     def look(self, row: int) -> tuple[np.ndarray, np.ndarray]:
         """What patch `row` sees through the bake's own pattern, turned as in its gather: the
         item buffer (D,) (patch id or SKY / BACK_FACE / LOST) and the world directions (D, 3)."""
-        return self._see(np.array([row], np.int64), self.dirs)
+        return self._see(np.array([row], np.int64), self.dirs)[:2]
 
-    def _see(self, rows: np.ndarray, local_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _see(self, rows: np.ndarray, local_dirs: np.ndarray):
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
-        id or SKY / BACK_FACE / LOST per ray, and the rays' directions (R * D, 3)."""
+        id or SKY / BACK_FACE / LOST per ray, the rays' directions (R * D, 3) and their Hits."""
         p = self.patches
         origins, dirs = hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
                                         local_dirs, row_angles(rows, self.seed))
         hits = self.tracer.intersect_chunk(origins, dirs)
-        return _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.tri_uv1,
-                                     p.width, p.height, p.index), dirs
+        seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.two_sided, self.tri_uv1,
+                                     p.width, p.height, p.index)
+        return seen, dirs, hits
 
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
         """One chunk's rows (the unit of work a Ray task runs)."""
-        seen, dirs = self._see(rows, self.dirs)
+        seen, dirs, hits = self._see(rows, self.dirs)
         sky = seen == SKY
         radiance = np.zeros((int(sky.sum()), 3), np.float32)
         if self.sky is not None and len(radiance):
             radiance = self.sky.radiance(dirs[sky]).astype(np.float32)
         indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        S += self._emission_seen(seen, hits, dirs)
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
         if progress is not None:
             progress(len(rows))
         return GatherRows(F, S, back, int(np.count_nonzero(seen == LOST)))
+
+    def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
+        """(R, 3) emitted light the rays see: all of it without next-event estimation, else
+        its MIS share (the direct stage's `emitter_light` holds the rest)."""
+        e = self.emitters
+        emission = self.patches.emission
+        if e is None or self.nee_samples == 0:
+            return _kernels.item_buffer_times(seen, self.weights, emission)
+        return _kernels.emission_seen(seen, hits.tri, hits.t, dirs, self.dirs, self.weights, emission,
+                                      e.pdf_area, e.tri_normal, e.tri_two_sided, float(self.nee_samples))

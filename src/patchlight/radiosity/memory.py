@@ -12,29 +12,14 @@ lightmap too large is refused with the estimate instead of being killed by the k
 from __future__ import annotations
 
 import math
-import os
 
 from ..errors import PatchlightError
+from ..limits import available_memory
 
 BYTES_PER_TEXEL = 720          # at 2 x 2 texel samples: measured 542..687 (module docstring)
 BYTES_PER_TEXEL_SAMPLE = 80    # each further direct-light point per texel: measured about 74
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
-
-
-def available_memory() -> int:
-    """Bytes of memory available now (Linux MemAvailable, else free pages; 0 when unknown)."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 0
 
 
 def estimate_bake_bytes(width: int, height: int, texel_samples: int = 2) -> int:

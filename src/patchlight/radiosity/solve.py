@@ -1,6 +1,7 @@
 """The passes: incident = direct + gathered, excident = incident x reflectance + emission.
 
-Pass 1 lights the scene with the lights, the sky and the emitters (B = E); pass k adds the
+Pass 1 lights the scene with the lights, the sky and the emitters (direct light holds the
+emitters' next-event share, the gather's constant term S the rest); pass k adds the
 (k-1)th bounce. Gathered light G = S + F B is known at computed patches and interpolated
 at the rest (adaptive.py); patches inside geometry get no light of their own.
 """
@@ -21,7 +22,8 @@ ROWS_PER_PRODUCT = 1 << 12  # rows of F B per task on the tracer's threads (one 
 
 @dataclass
 class FormFactors:
-    """The computed patches' rows: ids (C,), sky terms S (C, 3), and F (C, N) CSR while it
+    """The computed patches' rows: ids (C,), constant terms S (C, 3) (sky and the gather's share
+    of emitted light), and F (C, N) CSR while it
     fits in `budget` bytes. When the next block of rows would not fit, F is dropped, and every
     product re-gathers its rows chunk by chunk (Gatherer.product): bounded memory, the same
     answer (the ray pattern is seeded per patch), more rays."""
@@ -96,10 +98,12 @@ class Solution:
     changes: list[float]
 
 
-def gathered_light(ff: FormFactors, B: np.ndarray, status: np.ndarray, order) -> np.ndarray:
-    """G (N, 3) = S + F B at computed patches, interpolated elsewhere."""
-    G = np.zeros_like(B)
-    G[ff.ids] = ff.S + ff.product(B)
+def gathered_light(ff: FormFactors, reflected: np.ndarray, status: np.ndarray, order) -> np.ndarray:
+    """G (N, 3) = S + F (B - E) at computed patches, interpolated elsewhere: the gather's
+    emitted light is in S with the sky (its MIS share beside the direct stage's), F carries
+    the reflected light rho I."""
+    G = np.zeros_like(reflected)
+    G[ff.ids] = ff.S + ff.product(reflected)
     return adaptive.interpolate(G, status, order)
 
 
@@ -113,7 +117,7 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     previous, changes = None, []
     I = G = np.zeros_like(direct)
     for k in range(1, passes + 1):
-        G = gathered_light(ff, B, status, order)
+        G = gathered_light(ff, B - emission, status, order)
         I = direct + G
         I[inside] = 0.0
         B = rho * I + emission

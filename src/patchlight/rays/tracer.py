@@ -101,15 +101,16 @@ class Tracer:
         return Hits(*(np.concatenate(x) for x in zip(*(
             (h.tri, h.u, h.v, h.t, h.front) for h in parts))))
 
+    def occluded_chunk(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
+        """(N,) bool occlusion traced on the calling thread (see `occluded`); tmax (N,) f32."""
+        self._count(len(origins))
+        return self._ready().run(np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32),
+                                 dists=np.array(tmax, np.float32), query="OCCLUDED") >= 0
+
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
         """(N,) bool: True where something lies along the ray before distance tmax."""
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(directions, np.float32)
         far = np.ascontiguousarray(np.broadcast_to(np.asarray(tmax, np.float32), (len(o),)))
-
-        def run(oc, dc, fc):
-            self._count(len(oc))
-            return self._scene.run(oc, dc, dists=fc.copy(), query="OCCLUDED") >= 0
-
-        parts = self._map(run, len(o), o, d, far)
+        parts = self._map(self.occluded_chunk, len(o), o, d, far)
         return np.concatenate(parts) if parts else np.zeros(0, bool)

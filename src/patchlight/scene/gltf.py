@@ -24,7 +24,8 @@ path, a '..' that climbs out, a symbolic link leading out or a file with other h
   doubleSided; material `extras` {"shininess": float, "reflectivity": float}.
 * KHR_lights_punctual -> `Light` in radiometric units: lux / 683 -> W/m^2, cd / 683 -> W/sr.
   Position is the node's world translation, direction its world -Z.  The light definition's
-  `extras` may hold {"falloff": "inverse-square" | "range", "angle": sun diameter in radians}.
+  `extras` may hold {"falloff": "inverse-square" | "range", "angle": sun diameter in radians,
+  "baked": false (a dynamic light: left out of the bake; default true)}.
 
 `Scene.extras` gets "skipped_primitives" (points/lines), "degenerate_triangles" and
 "warnings" (a list of one-line strings).  `Scene.provenance` (see `model.Provenance`) records,
@@ -57,21 +58,30 @@ written instead, with a warning.
 
 For a built-in scene: the world-space triangle soup (identity nodes), one mesh per material,
 every mesh sharing the POSITION, NORMAL, TEXCOORD_0, TEXCOORD_1 (= `uv1` exactly), COLOR_0
-and TANGENT accessors; materials (metallicFactor 0: patchlight surfaces are diffuse), lights
-in photometric units and the camera.
+and TANGENT accessors; materials (metallicFactor 0 and KHR_materials_specular's
+specularFactor 0: patchlight surfaces are Lambertian, so engines add no specular layer),
+lights in photometric units and the camera.
 
 Both: the bake's sky in `extras.patchlight.sky` of the scene the loader reads (an image sky
-as a path relative to the .glb, when its file is known: `Sky.to_extras`), and the RGBM
-lightmap as a texture named "patchlight_lightmap" (re-baking a scene.glb replaces its image),
-described in the root `extras`:
+as a path relative to the .glb, when its file is known: `Sky.to_extras`); every light
+definition's `extras.baked` (true: its light is in the lightmap, runtimes must not add it
+again; false: a dynamic light); and the lightmap (`imaging.lightmap.EncodedLightmap`: linear
+incident light I / scale) as the texture "patchlight_lightmap" (re-baking a scene.glb
+replaces its images), referenced by every material of the lightmapped primitives as
 
-    {"patchlight": {"lightmap": {"texture": <texture index>, "texCoord": 1, "encoding": "RGBM",
-                                 "rgbmRange": <float>, ...the caller's metadata}}}
+    "extensions": {"MOZ_lightmap": {"index": <texture>, "texCoord": 1, "intensity": pi x scale}}
 
-three.js's GLTFLoader reads TEXCOORD_1 as the `uv1` attribute and the root extras as
-`gltf.userData`; the viewer gets the texture with
-`gltf.parser.getDependency("texture", gltf.userData.patchlight.lightmap.texture)` and decodes
-RGBM as rgb * a * rgbmRange (the texture is linear data, no sRGB, no mipmaps, v = 0 at the top).
+(three.js: material.lightMap, channel 1, lightMapIntensity; its lightMap is irradiance, which
+a diffuse surface turns into albedo / pi x irradiance = albedo x I).  The texture's source is
+the 8-bit PNG any viewer can read; its MOZ_texture_rgbe extension names the HDR Radiance .hdr
+image (mimeType image/vnd.radiance) that three.js's HDRLoader decodes
+(`viewer/static/patchlight_gltf.js`, the GLTFLoader plugin, does it).  The texture is linear
+data, no sRGB, no mipmaps, v = 0 at the top.  The root `extras` describe it:
+
+    {"patchlight": {"lightmap": {"texture": <texture index>, "texCoord": 1, "scale": <float>,
+                                 "intensity": pi x scale, ...the caller's metadata}}}
+
+save_baked_glb's `extras` go into the root extras.patchlight too (vertexbake's colorScale).
 """
 from __future__ import annotations
 
@@ -95,12 +105,16 @@ import pygltflib as gl
 from ..errors import PatchlightError
 from ..imaging.color import linear_to_srgb, srgb_to_linear
 from ..imaging.io import atomic_path, check_finite, decode_image, encode_png, json_text, read_bytes, read_environment
+from ..imaging.lightmap import EncodedLightmap
+from ..limits import load_json
 from .model import Light, Material, Objects, Provenance, Scene, vertex_normals
 from .sky import Sky
 
 # Photometric -> radiometric: 683 lm/W at 555 nm (KHR_lights_punctual intensities are lux / candela).
 LUMENS_PER_WATT = 683.0
 UNLIT = "KHR_materials_unlit"  # vertex-baked light: viewers show base colour x COLOR_0 as it is
+MOZ_LIGHTMAP, MOZ_RGBE = "MOZ_lightmap", "MOZ_texture_rgbe"  # the lightmap, and its HDR image
+HDR_MIME = "image/vnd.radiance"
 
 SUPPORTED_REQUIRED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                  "KHR_mesh_quantization"}
@@ -110,6 +124,12 @@ _COMPONENT_DTYPES = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtyp
 _NORMALIZED_MAX = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0}
 _INDEX_TYPES = (5121, 5123, 5125)
 _TYPE_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+_TOP_LEVEL_LISTS = ("accessors", "animations", "buffers", "bufferViews", "cameras", "images", "materials",
+                    "meshes", "nodes", "samplers", "scenes", "skins", "textures")
+_WHOLE_NUMBER_FIELDS = {"accessors": ("bufferView", "byteOffset", "componentType", "count"),
+                        "bufferViews": ("buffer", "byteOffset", "byteLength", "byteStride", "target"),
+                        "buffers": ("byteLength",), "images": ("bufferView",), "textures": ("sampler", "source"),
+                        "nodes": ("camera", "mesh", "skin")}
 _GLB_MAGIC, _CHUNK_JSON, _CHUNK_BIN = b"glTF", 0x4E4F534A, 0x004E4942
 _POINTS_AND_LINES = (0, 1, 2, 3)
 _TRIANGLES, _STRIP, _FAN = 4, 5, 6
@@ -162,20 +182,46 @@ def _read_document(path: Path) -> tuple[gl.GLTF2, bytes | None]:
         text, blob = _split_glb(data, path)
     else:
         text, blob = _json_text(data, path), None
-    try:
-        raw = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PatchlightError(f"{path}: not a glTF file (invalid JSON: {exc})") from exc
+    raw = load_json(text, str(path))
     if not isinstance(raw, dict) or not isinstance(raw.get("asset"), dict):
         raise PatchlightError(f"{path}: not a glTF file (JSON without an 'asset' object)")
     version = str(raw["asset"].get("version", ""))
     if not version.startswith("2."):
         raise PatchlightError(f"{path}: glTF version {version!r} is not supported (only 2.x)")
+    _check_structure(raw, path)
     try:
         doc = gl.GLTF2.from_json(text, infer_missing=True)
     except Exception as exc:  # pygltflib's decoder raises whatever the bad value provokes
         raise PatchlightError(f"{path}: malformed glTF ({type(exc).__name__}: {exc})") from exc
     return doc, blob
+
+
+def _check_structure(raw: dict, path: Path) -> None:
+    """The document's shape, before anything trusts it: top-level arrays are lists of objects,
+    indices, counts, offsets and lengths are whole numbers, extension lists hold names."""
+    def bad(what: str) -> PatchlightError:
+        return PatchlightError(f"{path}: malformed glTF ({what})"[:300])
+
+    if "scene" in raw and not _whole(raw["scene"]):
+        raise bad(f"'scene' must be an index, got {raw['scene']!r}")
+    for key in _TOP_LEVEL_LISTS:
+        items = raw.get(key, [])
+        if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+            raise bad(f"'{key}' must be a list of objects")
+        for n, item in enumerate(items):
+            for name in _WHOLE_NUMBER_FIELDS.get(key, ()):
+                if name in item and not _whole(item[name]):
+                    raise bad(f"{key}[{n}]: {name} {item[name]!r} is not a whole number >= 0")
+    for key in ("extensionsUsed", "extensionsRequired"):
+        names = raw.get(key, [])
+        if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+            raise bad(f"'{key}' must be a list of extension names")
+    if not isinstance(raw.get("extensions", {}), dict):
+        raise bad("'extensions' must be an object")
+
+
+def _whole(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 2**53
 
 
 def _json_text(data: bytes, path: Path) -> str:
@@ -280,6 +326,7 @@ class _Importer:
         self.uses_default_material = False
         self._buffers: dict[int, bytes] = {}
         self._images: dict[int, np.ndarray] = {}
+        self._input_bytes: int | None = None
 
     def fail(self, what: str) -> PatchlightError:
         return PatchlightError(f"{self.path}: {what}")
@@ -432,14 +479,31 @@ class _Importer:
         width = _TYPE_WIDTHS.get(acc.type)
         if dtype is None or width is None:
             raise self.fail(f"{what}: unsupported componentType {acc.componentType} / type {acc.type!r}")
-        count = int(acc.count or 0)
+        count = acc.count or 0
         if acc.bufferView is None:
+            self._check_unbacked(count * width * dtype.itemsize, what)
             values = np.zeros((count, width), dtype)
         else:
             values = self._strided(acc.bufferView, acc.byteOffset or 0, count, width, dtype, what)
         if acc.sparse is not None:
             values = self._apply_sparse(acc.sparse, values, what)
         return values
+
+    def _check_unbacked(self, nbytes: int, what: str) -> None:
+        """An accessor without a bufferView is zeros (plus sparse substitutes), standing for data
+        as large as real attributes: it may not be larger than the file and its buffers, so a few
+        bytes cannot ask for gigabytes."""
+        if self._input_bytes is None:
+            self._input_bytes = self.path.stat().st_size
+            for index, buf in enumerate(self.doc.buffers or []):
+                if buf.uri is not None:
+                    try:
+                        self._input_bytes += len(self.buffer(index))
+                    except PatchlightError:
+                        pass
+        if nbytes > self._input_bytes:
+            raise self.fail(f"{what}: {nbytes:,} bytes without a bufferView, more than the "
+                            f"{self._input_bytes:,} bytes of the file and its buffers")
 
     def _apply_sparse(self, sparse: gl.Sparse, values: np.ndarray, what: str) -> np.ndarray:
         """Overwrite the listed elements with the sparse substitutes."""
@@ -710,7 +774,9 @@ class _Importer:
             reference = (self.doc.nodes[node_index].extensions or {}).get("KHR_lights_punctual")
             if reference is not None:
                 spec = self.item(definitions, reference.get("light"), f"node {node_index}: KHR_lights_punctual light")
-                lights.append(self._light(spec, world, f"light {reference.get('light')}"))
+                light = self._light(spec, world, f"light {reference.get('light')}")
+                light.source = reference.get("light")
+                lights.append(light)
         return lights
 
     def _light(self, spec: dict, world: np.ndarray, where: str) -> Light:
@@ -723,6 +789,9 @@ class _Importer:
         inner, outer = float(cone.get("innerConeAngle", 0.0)), float(cone.get("outerConeAngle", math.pi / 4))
         extras = spec.get("extras") or {}
         falloff, angle = extras.get("falloff"), float(extras.get("angle", 0.0))
+        baked = extras.get("baked", True)
+        if not isinstance(baked, bool):
+            raise self.fail(f"{where}: extras 'baked' must be true or false, got {baked!r}")
         direction = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
         if intensity < 0 or (light_range is not None and float(light_range) <= 0):
             raise self.fail(f"{where}: intensity must be >= 0 and range > 0")
@@ -738,7 +807,7 @@ class _Importer:
                      direction=(direction / np.linalg.norm(direction)).astype(np.float32),
                      range=None if light_range is None else float(light_range),
                      inner_cone=inner, outer_cone=outer, falloff=falloff, angle=angle,
-                     name=str(spec.get("name", "")))
+                     name=str(spec.get("name", "")), baked=baked)
 
     def _camera(self, instances) -> dict | None:
         """The first perspective camera node as {eye, target, fov (vertical, degrees)}: the
@@ -847,12 +916,13 @@ def _rgba(image: np.ndarray) -> np.ndarray:
 
 # =========================================================================== export
 
-def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = None,
-                   lightmap_meta: dict | None = None, unlit: bool = False, folder=None) -> Path:
-    """Write `scene` (and its RGBM lightmap PNG, if given) as one .glb, atomically; returns the path.
+def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | None = None,
+                   lightmap_meta: dict | None = None, unlit: bool = False, folder=None,
+                   extras: dict | None = None) -> Path:
+    """Write `scene` (and its lightmap, if given) as one .glb, atomically; returns the path.
 
-    lightmap_meta: JSON-able dict stored with the lightmap; it must hold "rgbmRange" (> 0, the
-    value an RGBM texel with rgb = a = 1 decodes to).  Layout: see the module docstring.
+    lightmap_meta: JSON-able dict stored with the lightmap's description in the root extras.
+    extras: JSON-able dict merged into the root extras.patchlight.  Layout: see the module docstring.
     unlit: mark every material KHR_materials_unlit (used, not required): the light is baked
     into COLOR_0, so viewers must not light it again. folder: the directory the file will end
     up in, when it is written elsewhere first (a staging directory): an image sky's path is
@@ -861,41 +931,41 @@ def save_baked_glb(scene: Scene, path, lightmap_rgbm_png_bytes: bytes | None = N
     describes it (or that the writer cannot map back), as the flattened world-space copy
     (`_GlbWriter`), with a warning.
     """
-    if lightmap_rgbm_png_bytes is not None:
+    if lightmap is not None:
         if scene.uv1 is None:
             raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
-        _lightmap_description(lightmap_rgbm_png_bytes, lightmap_meta or {})  # refuse bad input before any work
+        _lightmap_description(lightmap, lightmap_meta or {})  # refuse bad input before any work
     folder = Path(path).parent if folder is None else Path(folder)
     source, glb = _SourceWriter.open(scene), None
     if isinstance(source, _SourceWriter):
         try:
-            glb = source.write(folder, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
+            glb = source.write(folder, lightmap, lightmap_meta or {}, unlit, extras or {})
         except (PatchlightError, ValueError) as exc:
             source = f"its file could not be rewritten ({exc})"
     if glb is None:
         if source is not None:
             warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
-        glb = _flattened_glb(scene, folder, lightmap_rgbm_png_bytes, lightmap_meta or {}, unlit)
+        glb = _flattened_glb(scene, folder, lightmap, lightmap_meta or {}, unlit, extras or {})
     with atomic_path(path) as tmp:
         tmp.write_bytes(glb)
     return Path(path)
 
 
-def _flattened_glb(scene: Scene, folder: Path, png: bytes | None, meta: dict, unlit: bool) -> bytes:
+def _flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool,
+                   extras: dict) -> bytes:
     """The world-space soup as one .glb: one identity node and mesh per material."""
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
-    writer.doc.materials = [writer.material(m) for m in scene.materials]
+    writer.doc.materials = [writer.material(m, unlit) for m in scene.materials]
     if unlit:
-        for material in writer.doc.materials:
-            material.extensions = {**(material.extensions or {}), UNLIT: {}}
         writer.use_extension(UNLIT)
     nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
     sky = scene.sky.to_extras(folder) if scene.sky is not None else None
     writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras={"patchlight": {"sky": sky}} if sky else {})]
     writer.doc.scene = 0
-    if png is not None:
-        writer.lightmap(png, meta)
+    writer.doc.extras = {"patchlight": _jsonable(extras)} if extras else {}
+    if lightmap is not None:
+        writer.lightmap(lightmap, meta)
     return writer.finish()
 
 
@@ -965,7 +1035,8 @@ class _GlbWriter:
         self.doc.textures.append(gl.Texture(source=len(self.doc.images) - 1, sampler=sampler, name=name))
         return len(self.doc.textures) - 1
 
-    def material(self, material: Material) -> gl.Material:
+    def material(self, material: Material, unlit: bool = False) -> gl.Material:
+        """The glTF material; unlit: KHR_materials_unlit, else a Lambertian surface (specular 0)."""
         peak = float(np.max(material.emissive))
         strength = peak if peak > 1.0 else 1.0  # emissiveFactor must stay in [0, 1]
         pbr = gl.PbrMetallicRoughness(baseColorFactor=_floats(material.base_color), metallicFactor=0.0,
@@ -973,8 +1044,11 @@ class _GlbWriter:
         out = gl.Material(name=material.name, pbrMetallicRoughness=pbr, doubleSided=bool(material.double_sided),
                           emissiveFactor=_floats(material.emissive / np.float32(strength)),
                           extras={"shininess": float(material.shininess), "reflectivity": float(material.reflectivity)})
+        shading = UNLIT if unlit else "KHR_materials_specular"
+        out.extensions = {shading: {} if unlit else {"specularFactor": 0.0}}
+        self.use_extension(shading)
         if strength > 1.0:
-            out.extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": strength}}
+            out.extensions["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
             self.use_extension("KHR_materials_emissive_strength")
         if material.base_color_texture is not None:
             pbr.baseColorTexture = gl.TextureInfo(index=self.texture(_srgb_png(material.base_color_texture)))
@@ -998,8 +1072,7 @@ class _GlbWriter:
             if light.kind == "spot":
                 spec["spot"] = {"innerConeAngle": float(light.inner_cone), "outerConeAngle": float(light.outer_cone)}
             extras = {"falloff": light.falloff, "angle": float(light.angle) if light.angle else None}
-            if any(v is not None for v in extras.values()):
-                spec["extras"] = {k: v for k, v in extras.items() if v is not None}
+            spec["extras"] = {**{k: v for k, v in extras.items() if v is not None}, "baked": bool(light.baked)}
             specs.append(spec)
             self.doc.nodes.append(gl.Node(name=light.name or f"light_{number}", translation=_floats(light.position),
                                           rotation=_rotation_onto(light.direction),
@@ -1018,30 +1091,49 @@ class _GlbWriter:
         self.doc.cameras.append(gl.Camera(type="perspective", perspective=gl.Perspective(
             yfov=math.radians(float(camera.get("fov", 60.0))), znear=0.01)))
         self.doc.nodes.append(gl.Node(name="camera", camera=len(self.doc.cameras) - 1, translation=_floats(eye),
-                                      rotation=_rotation_onto(np.asarray(camera["target"], np.float64) - eye)))
+                                      rotation=_look_rotation(np.asarray(camera["target"], np.float64) - eye)))
         return [len(self.doc.nodes) - 1]
 
-    def lightmap(self, png: bytes, meta: dict) -> None:
-        """The RGBM lightmap as texture "patchlight_lightmap" and its description in the root extras."""
-        description = _lightmap_description(png, meta)
+    def lightmap(self, lightmap: EncodedLightmap, meta: dict) -> None:
+        """The lightmap as texture "patchlight_lightmap" (PNG source, .hdr through MOZ_texture_rgbe),
+        MOZ_lightmap on every material, and its description in the root extras."""
+        description = _lightmap_description(lightmap, meta)
         self.doc.samplers.append(gl.Sampler(**_LIGHTMAP_SAMPLER))
-        description["texture"] = self.texture(png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1)
-        self.doc.extras = {"patchlight": {"lightmap": description}}
+        texture = self.texture(lightmap.png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1)
+        self.doc.images.append(gl.Image(bufferView=self.view(lightmap.hdr), mimeType=HDR_MIME, name=LIGHTMAP_HDR_NAME))
+        self.doc.textures[texture].extensions = {MOZ_RGBE: {"source": len(self.doc.images) - 1}}
+        for material in self.doc.materials:
+            material.extensions = {**(material.extensions or {}), MOZ_LIGHTMAP: _lightmap_reference(texture, lightmap)}
+        for name in (MOZ_LIGHTMAP, MOZ_RGBE):
+            self.use_extension(name)
+        description["texture"] = texture
+        self.doc.extras = {"patchlight": {**self.doc.extras.get("patchlight", {}), "lightmap": description}}
 
 
 LIGHTMAP_NAME = "patchlight_lightmap"
+LIGHTMAP_HDR_NAME = "patchlight_lightmap_hdr"
 _LIGHTMAP_SAMPLER = {"magFilter": _LINEAR_FILTER, "minFilter": _LINEAR_FILTER,
                      "wrapS": _CLAMP_TO_EDGE, "wrapT": _CLAMP_TO_EDGE}
 
 
-def _lightmap_description(png: bytes, meta: dict) -> dict:
-    """extras.patchlight.lightmap without its "texture" index; ValueError for a bad PNG or range."""
-    if not png.startswith(b"\x89PNG\r\n\x1a\n"):
-        raise ValueError("save_baked_glb: lightmap_rgbm_png_bytes is not a PNG")
-    rgbm_range = meta.get("rgbmRange")
-    if not isinstance(rgbm_range, (int, float, np.number)) or not 0 < float(rgbm_range) < math.inf:
-        raise ValueError(f"save_baked_glb: lightmap_meta needs a positive 'rgbmRange', got {rgbm_range!r}")
-    return {**_jsonable(meta), "texture": None, "texCoord": 1, "encoding": "RGBM", "rgbmRange": float(rgbm_range)}
+def _lightmap_description(lightmap: EncodedLightmap, meta: dict) -> dict:
+    """extras.patchlight.lightmap without its "texture" index; ValueError for bad images or scale."""
+    if not lightmap.png.startswith(b"\x89PNG\r\n\x1a\n") or not lightmap.hdr.startswith(b"#?"):
+        raise ValueError("save_baked_glb: the lightmap needs PNG and Radiance .hdr bytes")
+    if not 0 < lightmap.scale < math.inf:
+        raise ValueError(f"save_baked_glb: the lightmap's scale must be positive, got {lightmap.scale!r}")
+    return {**_jsonable(meta), "texture": None, "texCoord": 1, "scale": lightmap.scale,
+            "intensity": _lightmap_intensity(lightmap)}
+
+
+def _lightmap_intensity(lightmap: EncodedLightmap) -> float:
+    """MOZ_lightmap's intensity: texel x scale is I; three.js's lightMap is irradiance pi I."""
+    return math.pi * lightmap.scale
+
+
+def _lightmap_reference(texture: int, lightmap: EncodedLightmap) -> dict:
+    """A material's MOZ_lightmap extension."""
+    return {"index": texture, "texCoord": 1, "intensity": _lightmap_intensity(lightmap)}
 
 
 class _SourceWriter:
@@ -1181,24 +1273,52 @@ class _SourceWriter:
 
     # ------------------------------------------------------------------ the document
 
-    def write(self, folder: Path, png: bytes | None, meta: dict, unlit: bool = False) -> bytes:
+    def write(self, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool = False,
+              extras: dict | None = None) -> bytes:
         """The .glb bytes; folder: where it will live (image sky paths are relative to it)."""
         primitives = self.rewritten_primitives()
         self.assign_meshes(primitives)
         self.drop_unused_draco()
-        if png is not None:
-            self.lightmap(png, meta)
+        self.root_extras(extras or {})
+        if lightmap is not None:
+            self.lightmap(lightmap, meta, primitives)
         if unlit:
             self.mark_unlit()
+        self.mark_lights()
         self.sky(folder)
         self.embed_external_images()
         self.compact()
         return self.container()
 
+    def root_extras(self, extras: dict) -> None:
+        """`extras` merged into the root extras.patchlight."""
+        if not extras:
+            return
+        raw = self.raw
+        root = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
+        patchlight = root.get("patchlight") if isinstance(root.get("patchlight"), dict) else {}
+        raw["extras"] = {**root, "patchlight": {**patchlight, **_jsonable(extras)}}
+
+    def mark_lights(self) -> None:
+        """extras.baked on every light definition a scene light came from."""
+        definitions = ((self.raw.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights") or []
+        for light in self.scene.lights:
+            if light.source is not None and 0 <= light.source < len(definitions):
+                spec = definitions[light.source]
+                extras = spec.get("extras") if isinstance(spec.get("extras"), dict) else {}
+                spec["extras"] = {**extras, "baked": bool(light.baked)}
+
     def mark_unlit(self) -> None:
-        """KHR_materials_unlit on every material, listed as used (not required)."""
+        """KHR_materials_unlit on every material, listed as used (not required); the light is in
+        COLOR_0, so an earlier bake's MOZ_lightmap references and description go."""
         for material in self.raw.get("materials") or []:
             material.setdefault("extensions", {})[UNLIT] = {}
+            material["extensions"].pop(MOZ_LIGHTMAP, None)
+        if MOZ_LIGHTMAP in (self.raw.get("extensionsUsed") or []):
+            self.raw["extensionsUsed"].remove(MOZ_LIGHTMAP)
+        patchlight = (self.raw.get("extras") or {}).get("patchlight")
+        if isinstance(patchlight, dict):
+            patchlight.pop("lightmap", None)
         if self.raw.get("materials") and UNLIT not in self.raw.setdefault("extensionsUsed", []):
             self.raw["extensionsUsed"].append(UNLIT)
 
@@ -1333,25 +1453,43 @@ class _SourceWriter:
 
     # ------------------------------------------------------------------ lightmap, sky, images
 
-    def lightmap(self, png: bytes, meta: dict) -> None:
-        """The RGBM lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the
-        new image, else a new texture "patchlight_lightmap"; root extras.patchlight.lightmap."""
+    def lightmap(self, lightmap: EncodedLightmap, meta: dict, primitives: dict[int, list[dict]]) -> None:
+        """The lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the new
+        images, else a new texture "patchlight_lightmap" (PNG source, .hdr through
+        MOZ_texture_rgbe); MOZ_lightmap on the materials of the triangle primitives written;
+        root extras.patchlight.lightmap."""
         raw = self.raw
-        description = _lightmap_description(png, meta)
+        description = _lightmap_description(lightmap, meta)
         extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
         patchlight = extras.get("patchlight") if isinstance(extras.get("patchlight"), dict) else {}
         old = (patchlight.get("lightmap") or {}).get("texture") if isinstance(patchlight.get("lightmap"), dict) else None
         textures, images = raw["textures"], raw["images"]
-        view = self.add_view(png)
+        png = {"name": LIGHTMAP_NAME, "bufferView": self.add_view(lightmap.png), "mimeType": "image/png"}
+        hdr = {"name": LIGHTMAP_HDR_NAME, "bufferView": self.add_view(lightmap.hdr), "mimeType": HDR_MIME}
         if (isinstance(old, int) and 0 <= old < len(textures) and textures[old].get("name") == LIGHTMAP_NAME
                 and isinstance(textures[old].get("source"), int) and 0 <= textures[old]["source"] < len(images)):
             texture = old
-            images[textures[old]["source"]] = {"name": LIGHTMAP_NAME, "bufferView": view, "mimeType": "image/png"}
+            images[textures[old]["source"]] = png
+            source = ((textures[old].get("extensions") or {}).get(MOZ_RGBE) or {}).get("source")
+            if isinstance(source, int) and 0 <= source < len(images) and images[source].get("name") == LIGHTMAP_HDR_NAME:
+                images[source] = hdr
+            else:
+                images.append(hdr)
+                source = len(images) - 1
         else:
             raw["samplers"].append(dict(_LIGHTMAP_SAMPLER))
-            images.append({"name": LIGHTMAP_NAME, "bufferView": view, "mimeType": "image/png"})
-            textures.append({"name": LIGHTMAP_NAME, "sampler": len(raw["samplers"]) - 1, "source": len(images) - 1})
-            texture = len(textures) - 1
+            images += [png, hdr]
+            textures.append({"name": LIGHTMAP_NAME, "sampler": len(raw["samplers"]) - 1, "source": len(images) - 2})
+            texture, source = len(textures) - 1, len(images) - 1
+        textures[texture]["extensions"] = {**(textures[texture].get("extensions") or {}), MOZ_RGBE: {"source": source}}
+        materials = raw.get("materials") or []
+        lit = {p["material"] for written in primitives.values() for p in written
+               if p.get("mode", _TRIANGLES) not in _POINTS_AND_LINES and isinstance(p.get("material"), int)}
+        for number in sorted(m for m in lit if 0 <= m < len(materials)):
+            materials[number]["extensions"] = {**(materials[number].get("extensions") or {}),
+                                               MOZ_LIGHTMAP: _lightmap_reference(texture, lightmap)}
+        used = raw.setdefault("extensionsUsed", [])
+        used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]
         description["texture"] = texture
         raw["extras"] = {**extras, "patchlight": {**patchlight, "lightmap": description}}
 
@@ -1552,6 +1690,7 @@ class _VertexBlock:
 
 # Extensions whose references to accessors and bufferViews the writer knows (or that have none).
 _KNOWN_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_mesh_quantization", "KHR_texture_basisu",
+                     MOZ_LIGHTMAP, MOZ_RGBE,
                      "EXT_texture_webp", "EXT_texture_avif", "KHR_xmp_json_ld", "EXT_mesh_gpu_instancing",
                      "KHR_draco_mesh_compression", "KHR_animation_pointer"}
 
@@ -1613,6 +1752,23 @@ def _rotation_onto(direction) -> list[float]:
     if cosine < -1.0 + 1e-12:  # opposite: half a turn about Y
         return [0.0, 1.0, 0.0, 0.0]
     q = np.array([*np.cross(forward, d), 1.0 + cosine])
+    return _floats(q / np.linalg.norm(q))
+
+
+def _look_rotation(direction) -> list[float]:
+    """Unit quaternion [x, y, z, w] turning a camera's -Z onto `direction` with its +Y as
+    near world +Y as it can be (no roll: the view the renderer's camera shows)."""
+    back = -np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    right = np.cross([0.0, 1.0, 0.0], back)
+    if np.linalg.norm(right) < 1e-9:  # looking straight up or down: any right will do
+        right = np.array([1.0, 0.0, 0.0])
+    right /= np.linalg.norm(right)
+    m = np.stack([right, np.cross(back, right), back], axis=1)  # columns: the camera's X, Y, Z
+    w = math.sqrt(max(0.0, 1.0 + np.trace(m))) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
+    q = np.array([x, y, z, w])
     return _floats(q / np.linalg.norm(q))
 
 

@@ -61,6 +61,9 @@ class Light:
     (glTF's -Z of the light node).  range: metres, or None for infinite.  Cone angles in radians.
     falloff: "inverse-square" | "range" | None (None: take the bake's --falloff).
     angle: apparent angular diameter of a sun, radians (0 = hard shadows).
+    baked: whether the bake puts its light into the lightmap (scene.glb then marks it baked, so
+    runtimes do not light the scene with it a second time); False keeps it dynamic.
+    source: its KHR_lights_punctual definition's index in the glTF file it came from, or None.
     """
 
     kind: str
@@ -74,6 +77,8 @@ class Light:
     falloff: str | None = None
     angle: float = 0.0
     name: str = ""
+    baked: bool = True
+    source: int | None = None
 
     def validate(self, where: str) -> None:
         """One line naming the light when a value is not finite or out of its range."""
@@ -188,10 +193,15 @@ class Scene:
         used = self.positions[np.unique(self.indices)]
         return used.min(axis=0), used.max(axis=0)
 
+    @property
+    def baked_lights(self) -> list[Light]:
+        """The lights a bake puts into the lightmap (the rest stay dynamic)."""
+        return [light for light in self.lights if light.baked]
+
     def has_light(self) -> bool:
-        """True when anything lights the scene: a lamp of some power, an emissive material (a
-        positive emissive factor: glTF multiplies any emissive texture by it) or a sky."""
-        lamps = any(np.any(light.radiometric > 0) for light in self.lights)
+        """True when anything lights the bake: a baked lamp of some power, an emissive material
+        (a positive emissive factor: glTF multiplies any emissive texture by it) or a sky."""
+        lamps = any(np.any(light.radiometric > 0) for light in self.baked_lights)
         emissive = any(m.is_emissive for m in self.materials)
         sky_lit = self.sky is not None and not self.sky.is_black()
         return lamps or emissive or sky_lit

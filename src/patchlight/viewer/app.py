@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import PatchlightError
 from ..imaging.exposure import auto_exposure
+from ..imaging.io import read_bytes
 from ..patchview import PatchViews
 from ..render.renderer import ENV_MODELS, Renderer
 from ..render.target import Target
@@ -55,7 +56,10 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
     manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note, patch,
                                   compare)
-    return ViewerServer(manifest_bytes(manifest), data, port, patch_view)
+    glb_path = None if target.bake_dir is None else target.bake_dir / "scene.glb"
+    glb = read_bytes(glb_path) if glb_path is not None and glb_path.is_file() else None
+    manifest["scene_glb"] = glb is not None
+    return ViewerServer(manifest_bytes(manifest), data, port, patch_view, glb)
 
 
 def require_same_uvs(target: Target, compare: Target) -> None:

@@ -16,6 +16,8 @@ int32); the manifest names them:
     texels (a bake's texels.npz: passes, status, chart, rho, emission, excident, the status
                 names and colours; null without one), patch (the texel to view from first, or null),
     compare (a second bake's name and lightmap, for the A/B split, or null),
+    scene_glb (whether the server has the bake's scene.glb for the page's three.js view: set
+                by viewer.app),
     env (the environment cube), env_note (why env is a black stand-in, or null),
     sky (the cube drawn behind the scene: "env" when the environment is the sky, its own
                 cube when the environment was rendered from a point, null without a sky),

@@ -1,12 +1,13 @@
 """The viewer's local web server: 127.0.0.1 only, GET and HEAD only, a fixed set of files.
 
 It serves the page (static/), the GLSL chunks (patchlight/shaders/*.glsl), the three.js
-build files the page imports (from the repository's node_modules/three), the scene bundle
-(/scene/manifest.json, /scene/data.bin) and, for a bake, the view from a patch
-(/scene/patch?x=X&y=Y: JSON, patchlight.patchview). Any other path (.., absolute paths,
-encoded traversal, symlinks that lead out of the served directory, names too long for the
-file system, files not on the list) gets 404; a request target longer than MAX_TARGET
-characters gets 414. Connections queue up to BACKLOG deep, and a client silent for
+files the page imports (three_files.py: bundled into the package when it is built, else the
+checkout's node_modules/three), the scene bundle (/scene/manifest.json, /scene/data.bin), a
+bake's scene.glb (/scene/scene.glb, for the page's three.js view) and, for a bake, the view
+from a patch (/scene/patch?x=X&y=Y: JSON, patchlight.patchview). Any other path (..,
+absolute paths, encoded traversal, symlinks that lead out of the served directory, names too
+long for the file system, files not on the list) gets 404; a request target longer than
+MAX_TARGET characters gets 414. Connections queue up to BACKLOG deep, and a client silent for
 CLIENT_TIMEOUT_S seconds is dropped.
 
 Only requests addressed to the server itself are answered: a Host header other than
@@ -25,6 +26,7 @@ from typing import Callable
 from urllib.parse import parse_qs, unquote, urlsplit
 
 from ..errors import PatchlightError
+from .three_files import BUNDLED, THREE_FILES
 
 HOST = "127.0.0.1"
 MAX_TARGET = 2048       # characters in a request target; longer: 414
@@ -32,25 +34,30 @@ BACKLOG = 128           # connections waiting to be accepted (the standard libra
 CLIENT_TIMEOUT_S = 10.0
 STATIC = Path(__file__).resolve().parent / "static"
 SHADERS = Path(__file__).resolve().parent.parent / "shaders"
-THREE_FILES = ("build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js")
 CONTENT_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
                  ".css": "text/css; charset=utf-8", ".glsl": "text/plain; charset=utf-8",
-                 ".json": "application/json", ".bin": "application/octet-stream", ".png": "image/png"}
+                 ".json": "application/json", ".bin": "application/octet-stream", ".png": "image/png",
+                 ".glb": "model/gltf-binary"}
+GLB_ROUTE = "/scene/scene.glb"  # a bake's glTF, which the page loads through the GLTFLoader plugin
 
 
 def find_three() -> Path:
-    """node_modules/three: $PATCHLIGHT_NODE_MODULES, else the nearest node_modules above this
-    package or the working directory (the repository root after `npm ci`)."""
+    """The three.js files: bundled in the package (a built install), else node_modules/three
+    from $PATCHLIGHT_NODE_MODULES or the nearest node_modules above this package or the
+    working directory (a checkout after `npm ci`)."""
+    bundled = Path(__file__).resolve().parent / BUNDLED
+    if (bundled / THREE_FILES[0]).is_file():
+        return bundled
     candidates = []
     if os.environ.get("PATCHLIGHT_NODE_MODULES"):
         candidates.append(Path(os.environ["PATCHLIGHT_NODE_MODULES"]))
     for start in (Path(__file__).resolve(), Path.cwd().resolve()):
         candidates += [parent / "node_modules" for parent in start.parents]
     for modules in candidates:
-        if (modules / "three" / "build" / "three.module.js").is_file():
+        if (modules / "three" / THREE_FILES[0]).is_file():
             return (modules / "three").resolve()
-    raise PatchlightError("three.js not found: run `npm ci` in the patchlight repository "
-                          "(or set PATCHLIGHT_NODE_MODULES to a node_modules holding three)")
+    raise PatchlightError("three.js not found: this patchlight was installed without its viewer files; "
+                          "reinstall it with `pip install .` (or run `npm ci` in the checkout)")
 
 
 def safe_file(root: Path, relative: str) -> Path | None:
@@ -75,9 +82,12 @@ class ViewerServer:
     """Serves one scene bundle. port 0 picks a free port; `url` is the page's address."""
 
     def __init__(self, manifest: bytes, data: bytes, port: int = 0,
-                 patch_view: Callable[[int, int], bytes] | None = None):
-        """patch_view(x, y): the JSON body of the view from texel (x, y), or None without a bake."""
+                 patch_view: Callable[[int, int], bytes] | None = None, scene_glb: bytes | None = None):
+        """patch_view(x, y): the JSON body of the view from texel (x, y), or None without a bake;
+        scene_glb: a bake's scene.glb, or None."""
         self.routes = {"/scene/manifest.json": manifest, "/scene/data.bin": data}
+        if scene_glb is not None:
+            self.routes[GLB_ROUTE] = scene_glb
         self.patch_view = patch_view
         self.three = find_three()
         handler = type("Handler", (_Handler,), {"viewer": self})

@@ -42,13 +42,15 @@ interpolation of the filled values, and in between the two blend continuously.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import PatchlightError
 from ..imaging.io import atomic_path, check_finite, read_bytes, write_json
-from .grid import ProbeGrid
+from ..limits import load_json
+from .grid import MAX_PROBES, ProbeGrid
 from .volume import AXES, LightVolume, compact, expand
 
 HEADER = "light_volume.json"
@@ -58,6 +60,8 @@ VERSION = 2
 READABLE_VERSIONS = (1, 2)
 SAMPLING = "validity-weighted trilinear"
 UNITS = "incident light I (cosine-weighted mean radiance, W m^-2 sr^-1), linear RGB"
+MIN_SPACING = 1e-6    # metres; below it the sampling's (P - origin) / spacing overflows
+MAX_COORDINATE = 1e9  # metres
 _DTYPES = {"float32": np.dtype("<f4"), "uint8": np.dtype("u1")}
 
 
@@ -106,12 +110,12 @@ def _read_volume(path: Path) -> LightVolume:
     header_path = path / HEADER if path.is_dir() else path
     if path.is_dir() and not header_path.exists():
         raise PatchlightError(f"{path}: no {HEADER} in it (write one with `patchlight volume`)")
-    try:
-        header = json.loads(read_bytes(header_path))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PatchlightError(f"{header_path}: not JSON ({exc})") from None
+    header = load_json(read_bytes(header_path), str(header_path))
     grid = _grid(header, header_path)
     arrays = _read_sections(header, header_path)
+    light = ("color", "intensity") if header.get("layout") == "compact" else ("cube",)
+    for name in light:
+        _check_light(_get(arrays, name, header_path), name, header_path.parent / _data_name(header, header_path))
     if header.get("layout") == "compact":
         cube = expand(_get(arrays, "color", header_path), _get(arrays, "intensity", header_path))
     else:
@@ -140,29 +144,58 @@ def _grid(header, where: Path) -> ProbeGrid:
     try:
         origin = [float(v) for v in header["origin"]]
         spacing = [float(v) for v in header["spacing"]]
-        dims = [int(v) for v in header["dims"]]
+        dims = header["dims"]
+        if not all(type(n) is int for n in dims):
+            raise TypeError
     except (KeyError, TypeError, ValueError):
-        raise PatchlightError(f"{where}: origin, spacing and dims must be lists of numbers") from None
-    if len(origin) != 3 or len(spacing) != 3 or len(dims) != 3 or min(dims) < 1 or min(spacing) <= 0 \
-            or not np.all(np.isfinite(origin + spacing)):
-        raise PatchlightError(f"{where}: origin, spacing and dims need three finite values, spacing > 0, dims >= 1")
+        raise PatchlightError(f"{where}: origin, spacing and dims must be lists of numbers (dims whole)") from None
+    if len(origin) != 3 or len(spacing) != 3 or len(dims) != 3 or min(dims) < 1 \
+            or not all(abs(o) <= MAX_COORDINATE for o in origin) \
+            or not all(MIN_SPACING <= d <= MAX_COORDINATE for d in spacing):
+        raise PatchlightError(f"{where}: origin, spacing and dims need three values each: origin within "
+                              f"{MAX_COORDINATE:g} m, spacing {MIN_SPACING:g}..{MAX_COORDINATE:g} m, dims >= 1")
+    if math.prod(dims) > MAX_PROBES:
+        raise PatchlightError(f"{where}: dims {dims} make more than {MAX_PROBES:,} probes")
     return ProbeGrid(tuple(origin), tuple(spacing), tuple(dims))
 
 
+def _data_name(header: dict, where: Path) -> str:
+    """The data file's name: a plain file name beside the header."""
+    name = header.get("data", DATA)
+    if not isinstance(name, str) or name in ("", ".", "..") or "/" in name or "\\" in name:
+        raise PatchlightError(f"{where}: data must name a file beside the header, not {name!r}"[:200])
+    return name
+
+
+def _check_light(values: np.ndarray, name: str, data: Path) -> None:
+    """Incident light is finite: say where it is not."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        first = np.unravel_index(int(np.argmax(bad)), values.shape)
+        raise PatchlightError(f"{data}: section {name} holds {int(bad.sum())} values that are not finite "
+                              f"(the first at {list(map(int, first))}: {float(values[first])})")
+
+
 def _read_sections(header: dict, where: Path) -> dict[str, np.ndarray]:
-    data = read_bytes(where.parent / str(header.get("data", DATA)))
+    data = read_bytes(where.parent / _data_name(header, where))
+    sections = header.get("sections", [])
+    if not isinstance(sections, list):
+        raise PatchlightError(f"{where}: sections must be a list")
     arrays = {}
-    for section in header.get("sections", []):
+    for section in sections:
         try:
-            name, dtype = section["name"], _DTYPES[section["dtype"]]
-            shape, offset = [int(n) for n in section["shape"]], int(section["offset"])
+            name, dtype = str(section["name"]), _DTYPES[section["dtype"]]
+            shape, offset = list(section["shape"]), section["offset"]
+            if not all(type(n) is int and n >= 0 for n in [*shape, offset]):
+                raise TypeError
         except (KeyError, TypeError, ValueError):
-            raise PatchlightError(f"{where}: a section lacks name, dtype (float32 or uint8), shape or offset") from None
-        size = int(np.prod(shape)) * dtype.itemsize
+            raise PatchlightError(f"{where}: a section lacks name, dtype (float32 or uint8), shape or offset "
+                                  f"(whole numbers >= 0)") from None
+        size = math.prod(shape) * dtype.itemsize
         if offset < 0 or offset + size > len(data):
             raise PatchlightError(f"{where}: section {name} runs past the end of {header.get('data', DATA)} "
                                   f"({offset + size} > {len(data)} bytes)")
-        arrays[name] = np.frombuffer(data, dtype, int(np.prod(shape)), offset).reshape(shape)
+        arrays[name] = np.frombuffer(data, dtype, math.prod(shape), offset).reshape(shape)
     return arrays
 
 

@@ -98,7 +98,7 @@ class IncidentGatherer:
         light, back, open_side = self.trace(origins, normals, advance=advance)
         s = self.settings
         sun_angle = None if s.sun_angle is None else np.radians(s.sun_angle)
-        light += direct_light(origins, normals, self.solved.scene.lights, self.tracer, s.falloff, sun_angle,
+        light += direct_light(origins, normals, self.solved.scene.baked_lights, self.tracer, s.falloff, sun_angle,
                               s.sun_samples)
         return light, back, open_side
 

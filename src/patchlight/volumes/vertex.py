@@ -15,10 +15,13 @@ Patches inside geometry are the bake's own (SolvedScene.valid, saved with the li
 solved scene that has none counts every covered texel). No ray is traced, so the result
 carries no extra noise.
 
-COLOR_0 = the file's vertex colour (white if none) x (I, 1): a renderer that multiplies the
-base colour by COLOR_0 and lights nothing (glTF's unlit shading, patchlight's `unlit`
-model) then shows albedo x I, the lit diffuse surface. Values are linear and exceed 1 where
-the light is bright. The light is already in COLOR_0, so save_vertex_lit_glb marks every
+COLOR_0 = the file's vertex colour (white if none) x (I / colorScale, 1), linear: a renderer
+that multiplies the base colour by COLOR_0 and lights nothing (glTF's unlit shading,
+patchlight's `unlit` model) shows albedo x I / colorScale, the lit diffuse surface scaled.
+glTF wants COLOR_0 within 0..1, so colorScale is the largest colour x I (at least 1: a scene
+whose light stays below 1 is stored as it is); the root extras.patchlight.vertexLight
+{"colorScale": s} records it, and a viewer restores the HDR light as COLOR_0.rgb x s (three.js:
+multiply the material colour by s; in glTF's unlit model, base colour factor x s). The light is already in COLOR_0, so save_vertex_lit_glb marks every
 material KHR_materials_unlit (listed in extensionsUsed, not extensionsRequired): glTF
 viewers that support it (three.js, Babylon.js, Blender, the Khronos sample viewer) draw
 base colour x COLOR_0 without lighting it a second time, and those that do not fall back
@@ -80,16 +83,20 @@ def barycentrics(positions: np.ndarray, indices: np.ndarray, triangle: np.ndarra
     return np.stack([1 - v - w, v, w], axis=1)
 
 
-def with_vertex_light(scene: Scene, incident: np.ndarray) -> Scene:
-    """A copy of `scene` whose colors (V, 4) are its own (or white) times (I, 1)."""
+def with_vertex_light(scene: Scene, incident: np.ndarray) -> tuple[Scene, float]:
+    """(a copy of `scene` whose colors (V, 4) are its own (or white) times (I / scale, 1), scale):
+    scale is the largest value of colour x I, at least 1, so COLOR_0 stays within 0..1."""
     base = scene.colors if scene.colors is not None else np.ones((len(scene.positions), 4), np.float32)
-    light = np.concatenate([incident, np.ones((len(incident), 1), np.float32)], axis=1)
-    return replace(scene, colors=(base * light).astype(np.float32))
+    lit = base[:, :3].astype(np.float64) * incident
+    scale = max(1.0, float(lit.max(initial=0.0)))
+    colors = np.concatenate([lit / scale, base[:, 3:]], axis=1)
+    return replace(scene, colors=np.clip(colors, 0.0, 1.0).astype(np.float32)), scale
 
 
-def save_vertex_lit_glb(scene: Scene, path) -> Path:
-    """Write `scene` (colours from with_vertex_light) as one .glb, atomically, every material
-    marked KHR_materials_unlit so viewers draw base colour x COLOR_0 unlit (module docstring)."""
+def save_vertex_lit_glb(scene: Scene, path, scale: float) -> Path:
+    """Write `scene` and `scale` (from with_vertex_light) as one .glb, atomically, every
+    material marked KHR_materials_unlit so viewers draw base colour x COLOR_0 unlit, and
+    extras.patchlight.vertexLight = {"colorScale": scale} (module docstring)."""
     from ..scene.gltf import save_baked_glb
 
-    return save_baked_glb(scene, path, unlit=True)
+    return save_baked_glb(scene, path, unlit=True, extras={"vertexLight": {"colorScale": scale}})

@@ -28,6 +28,7 @@ export function skyDome(sky, exposure, displayGlsl) {
   const material = new THREE.ShaderMaterial({
     uniforms: { sky_map: { value: sky }, exposure },
     vertexShader: VERTEX, fragmentShader: fragment(displayGlsl), side: THREE.BackSide, depthWrite: false,
+    toneMapped: false,
   });
   const dome = new THREE.Mesh(new THREE.BoxGeometry(2, 2, 2), material);
   dome.frustumCulled = false;

@@ -8,6 +8,7 @@ import { constantTexture, loadBundle } from './bundle.js';
 import { CameraRig } from './camera.js';
 import { Inspector, OVERLAYS } from './inspect.js';
 import { PatchPanel, legendRows } from './patchview.js';
+import { engineToneMapping, loadEngineScene } from './engine.js';
 import { installVolume, volumeUniforms } from './ambient_cube.js';
 import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
@@ -35,6 +36,7 @@ class Viewer {
       lights: this.manifest.lights.map((l) => ({ ...l })),
       exposures: {},  // exposure of each model (and of the incident-light overlay) once shown
       pass: 0, checker: false, outlines: false, split: '',
+      engine: false,  // show scene.glb through three.js's materials and the GLTFLoader plugin
     };
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(1);
@@ -49,6 +51,8 @@ class Viewer {
     this.scene = new THREE.Scene();
     this.mesh = new THREE.Mesh(bundle.geometry(), this.materials);
     this.scene.add(this.mesh);
+    this.engineScene = this.manifest.scene_glb ? await loadEngineScene() : null;
+    if (this.engineScene) this.scene.add(this.engineScene);
     const sky = this.manifest.sky;  // the sky behind the scene: the env cube itself, or its own cube
     this.sky = skyDome(sky === this.manifest.env ? this.uniforms.env_map.value : sky && bundle.cube(sky),
       this.uniforms.exposure, displayGlsl);
@@ -121,6 +125,7 @@ class Viewer {
     };
     const material = new THREE.ShaderMaterial({
       vertexShader, fragmentShader, uniforms, side: m.double_sided ? THREE.DoubleSide : THREE.FrontSide,
+      toneMapped: false,  // display.glsl encodes; three.js's tone mapping is for the scene.glb view
     });
     material.userData.reflectivity = m.reflectivity;
     return material;
@@ -160,6 +165,9 @@ class Viewer {
       }
       material.uniforms.reflectivity.value = st.reflectivity ?? material.userData.reflectivity;
     }
+    this.mesh.visible = !(st.engine && this.engineScene);
+    if (this.engineScene) this.engineScene.visible = !this.mesh.visible;
+    engineToneMapping(this.renderer, this.mesh.visible ? null : st.exposure);
     const u = this.uniforms;
     u.exposure.value = st.exposure;
     u.lightmap.value = this.inspector.lightTexture(st.pass);
@@ -395,6 +403,7 @@ function bindControls(viewer, redraw) {
   $('per-vertex').checked = st.perVertex;
   $('normal-map').checked = st.normalMap;
   $('lightmap-specular').checked = st.lightmapSpecular;
+  $('engine-row').hidden = !viewer.engineScene;
   $('reflectivity-material').checked = st.reflectivity === null;
   $('reflectivity').value = st.reflectivity ?? 0.5;
 
@@ -431,6 +440,7 @@ function bindControls(viewer, redraw) {
     if (st.normalMap) { st.perVertex = false; $('per-vertex').checked = false; }
   });
   $('lightmap-specular').onchange = change(() => { st.lightmapSpecular = $('lightmap-specular').checked; });
+  $('engine').onchange = change(() => { st.engine = $('engine').checked; });
   const reflectivity = change(() => {
     st.reflectivity = $('reflectivity-material').checked ? null : Number($('reflectivity').value);
   });
@@ -472,6 +482,12 @@ function bindInspection(viewer, canvas, redraw) {
     inspectAt(viewer, viewer.probe(ndcOf(e)));
   });
   canvas.addEventListener('dblclick', (e) => { if (viewer.rig.pivotAt(ndcOf(e))) redraw(); });
+  let hovered = null;  // the latest pointer position, probed once per animation frame
+  canvas.addEventListener('pointermove', (e) => {
+    if (e.buttons || !viewer.inspector.t) return;
+    if (!hovered) requestAnimationFrame(() => { $('hover').textContent = hoverLine(viewer.probe(hovered)); hovered = null; });
+    hovered = ndcOf(e);
+  });
   $('atlas').addEventListener('click', (e) => {
     const t = viewer.inspector;
     const r = e.target.getBoundingClientRect();
@@ -483,6 +499,13 @@ function bindInspection(viewer, canvas, redraw) {
     if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
     if (viewer.rig.key(e)) redraw();
   });
+}
+
+// One line about the texel under the pointer.
+function hoverLine(v) {
+  if (!v?.texel) return '';
+  const rgb = (c) => c.map((x) => x.toPrecision(3)).join(' ');
+  return `texel ${v.texel.join(',')}  chart ${v.chart}  ${v.status}  I ${rgb(v.I)}  B ${rgb(v.B)}`;
 }
 
 function inspectAt(viewer, probed) {
@@ -646,7 +669,8 @@ async function main() {
       return { width: c.width, height: c.height, data: Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data) };
     }),
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
-    // reflectivity, overlay, sky (draw the sky behind), camera {eye, target, fov}, width,
+    // reflectivity, overlay, sky (draw the sky behind), engine (scene.glb through three.js's
+    // materials and the GLTFLoader plugin), camera {eye, target, fov}, width,
     // height; lights: the lights to draw, as the manifest lists them (default: the manifest's),
     // or keep_lights: the lights as the controls left them); RGBA bytes, base64.
     renderCase(spec) {
@@ -656,6 +680,7 @@ async function main() {
       st.normalMap = Boolean(spec.normal_map);
       st.lightmapSpecular = Boolean(spec.lightmap_specular);
       st.overlay = spec.overlay ?? '';
+      st.engine = Boolean(spec.engine);
       if (spec.exposure !== undefined) st.exposure = spec.exposure;
       if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
       viewer.groundMap.configure(spec.radiosity);

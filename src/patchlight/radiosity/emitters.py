@@ -1,0 +1,97 @@
+"""Emissive triangles as area lights: next-event estimation, combined with the gather by MIS.
+
+Every texel sends shadow rays to points on emissive triangles, picked in proportion to
+their emitted power (emission x area, the emission read from the emitter's own lightmap
+patches, so textured emission counts) with stratified numbers, and weighs each sample in the
+solid-angle measure. The gather still sees emitters too; each of its rays that hits one
+counts the emission with the complementary weight (`_kernels.emission_seen`), so the two
+estimators add up to the emitted light exactly once (Veach's power heuristic): a tiny bright
+panel is found by the shadow rays, a large dim emissive wall nearby by the gather.
+Choosing an emitter is a binary search in the power table, so the cost does not grow with
+the number of emitters.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..atlas.patches import Patches
+from ..rays.tracer import Tracer
+from ..scene.model import Scene, face_normals
+from . import _kernels
+
+TEXELS_PER_CHUNK = 4096  # texels per task: kernel, shadow rays and sum on one core
+
+
+@dataclass
+class Emitters:
+    """The emissive triangles of a scene, as next-event estimation samples them.
+
+    triangles (M,) i32 scene triangle ids; cdf (M,) f64 cumulative share of emitted power;
+    corners (M, 3, 3) f64; normals (M, 3) f64; two_sided (M,) bool; area (M,) f64 m^2.
+    Per scene triangle (T,): pdf_area, the density per m^2 of a next-event sample landing on
+    it (0 on triangles never sampled); tri_normal (T, 3) f64; tri_two_sided (T,) bool.
+    """
+
+    triangles: np.ndarray
+    cdf: np.ndarray
+    corners: np.ndarray
+    normals: np.ndarray
+    two_sided: np.ndarray
+    area: np.ndarray
+    pdf_area: np.ndarray
+    tri_normal: np.ndarray
+    tri_two_sided: np.ndarray
+
+
+def two_sided_triangles(scene: Scene) -> np.ndarray:
+    """(T,) bool: triangles whose material is doubleSided (their back is an ordinary surface)."""
+    flags = np.array([m.double_sided for m in scene.materials] or [False], bool)
+    return flags[scene.material_ids] if scene.n_triangles else np.zeros(0, bool)
+
+
+def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
+    """The scene's emitters, or None when no patch emits. A triangle's emission is the mean
+    of the patches it owns (a triangle too small to own one: the material's factor)."""
+    if not np.any(patches.emission > 0):
+        return None
+    normal, area = face_normals(scene.positions, scene.indices)
+    t = scene.n_triangles
+    counts = np.bincount(patches.triangle, minlength=t)
+    owned = np.stack([np.bincount(patches.triangle, patches.emission[:, c], minlength=t) for c in range(3)], axis=1)
+    factor = np.array([np.asarray(m.emissive, np.float64)[:3] for m in scene.materials]).reshape(-1, 3)
+    emission = np.where(counts[:, None] > 0, owned / np.maximum(counts, 1)[:, None], factor[scene.material_ids])
+    power = emission.mean(axis=1) * area
+    triangles = np.flatnonzero(power > 0).astype(np.int32)
+    share = power[triangles] / power[triangles].sum()
+    pdf_area = np.zeros(t)
+    pdf_area[triangles] = share / area[triangles]
+    two_sided = two_sided_triangles(scene)
+    return Emitters(triangles=triangles, cdf=np.cumsum(share), area=area[triangles].astype(np.float64),
+                    corners=scene.positions[scene.indices[triangles]].astype(np.float64),
+                    normals=normal[triangles].astype(np.float64), two_sided=two_sided[triangles],
+                    pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
+
+
+def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: np.ndarray,
+                  lift: np.ndarray, tracer: Tracer, gather_rays: int, seed: int = 1) -> np.ndarray:
+    """(N, 3) f32 incident light from the emitters at every patch, the mean over its texel:
+    points (N, K, 3) spread over each texel, one shadow ray each (K samples per texel); lift
+    (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
+    e = emitters
+    normal = np.asarray(patches.normal, np.float64)
+    lift = np.asarray(lift, np.float64)
+
+    def chunk(rows):
+        origins, dirs, tmax, value = _kernels.emitter_rays(
+            points[rows], normal, lift, rows, e.cdf, e.triangles, e.corners, e.normals, e.two_sided, e.area,
+            tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
+        live = np.flatnonzero(tmax > 0)
+        blocked = tracer.occluded_chunk(origins[live], dirs[live], tmax[live])
+        value[live[blocked]] = 0.0
+        return value.reshape(len(rows), -1, 3).sum(axis=1)
+
+    rows = np.arange(len(patches), dtype=np.int64)
+    parts = tracer.map(chunk, [rows[s:s + TEXELS_PER_CHUNK] for s in range(0, len(rows), TEXELS_PER_CHUNK)])
+    return np.concatenate(parts).astype(np.float32) if parts else np.zeros((0, 3), np.float32)

@@ -1,0 +1,96 @@
+"""Emissive triangles as area lights: next-event estimation beside the gather, against exact
+form factors, and the cost of many emitters."""
+import numpy as np
+import pytest
+
+from patchlight.bake import bake
+from patchlight.config import BakeSettings
+from patchlight.scene import SceneBuilder
+from patchlight.solved import SolvedScene
+
+from form_factors import point_form_factor
+
+UP = (0.0, 1.0, 0.0)
+FLOOR = [[0, 0, 0], [0, 0, 1], [1, 0, 1], [1, 0, 0]]
+
+
+def mean_over_floor(result, height=0.0) -> np.ndarray:
+    """(3,) the lightmap as a renderer reads it (bilinear), averaged over the area of the
+    triangles lying in the plane y = height: the area mean, rim texels weighed rightly."""
+    solved = SolvedScene(result.scene, result.lightmap, "test")
+    corners = result.scene.positions[result.scene.indices]
+    tris = np.flatnonzero(np.abs(corners[:, :, 1] - height).max(axis=1) < 1e-6)
+    g = (np.arange(60) + 0.5) / 60
+    u, v = np.meshgrid(g, g)
+    keep = u + v < 1
+    u, v = u[keep], v[keep]
+    return np.mean([solved.incident(np.full(len(u), t), u, v).mean(axis=0) for t in tris], axis=0)
+
+
+@pytest.mark.parametrize("lamp, facing, expected", [
+    ([[0, 1, 0], [1, 1, 0], [1, 1, 1], [0, 1, 1]], (0, -1, 0), 0.19982),  # parallel, one unit above
+    ([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], (0, 0, 1), 0.20004),   # perpendicular, a shared edge
+])
+def test_a_unit_square_emitter_gives_howells_form_factor_at_the_defaults(lamp, facing, expected):
+    b = SceneBuilder()
+    floor, light = b.material("white", (1.0, 1.0, 1.0)), b.material("lamp", (0, 0, 0), emissive=(2.0, 2.0, 2.0))
+    b.quad(FLOOR, floor, UP)
+    b.quad(lamp, light, facing)
+    result = bake(b.scene("howell"), BakeSettings(resolution=48))
+    assert result.stats["rays_direct"] > 0
+    np.testing.assert_allclose(mean_over_floor(result), 2.0 * expected, rtol=1e-2)
+
+
+def _panel_over_floor(emitter_samples: int):
+    """A 0.1 m panel of radiance 400, facing down 1 m above a black 2 x 2 m floor."""
+    b = SceneBuilder()
+    floor, light = b.material("black", (0, 0, 0)), b.material("panel", (0, 0, 0), emissive=(400.0, 400.0, 400.0))
+    b.quad([[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]], floor, UP)
+    panel = np.array([[-0.05, 1, -0.05], [0.05, 1, -0.05], [0.05, 1, 0.05], [-0.05, 1, 0.05]])
+    b.quad(panel, light, (0, -1, 0))
+    result = bake(b.scene("panel"), BakeSettings(resolution=64, emitter_samples=emitter_samples))
+    p = result.patches
+    on_floor = np.flatnonzero(np.abs(p.position[:, 1]) < 1e-6)
+    exact = np.array([400.0 * point_form_factor(p.position[i].astype(np.float64), np.array(UP), panel)
+                      for i in on_floor])
+    return result.solution.incident[on_floor, 0], exact
+
+
+def test_a_tiny_bright_panel_lights_every_floor_texel_within_a_few_percent():
+    """The issue's case: the gather alone (no shadow rays) left a median error of 29 % and
+    6 % of the texels at 0. Next-event estimation finds the panel from every texel."""
+    baked, exact = _panel_over_floor(16)
+    error = np.abs(baked / exact - 1)
+    assert baked.min() > 0
+    assert np.median(error) < 0.02 and np.percentile(error, 99) < 0.06
+    gathered, _ = _panel_over_floor(0)
+    assert np.median(np.abs(gathered / exact - 1)) > 5 * np.median(error)
+
+
+def _facade(cells: int) -> tuple:
+    """A 1 x 1 m emissive wall over a 2 x 1 m grey floor, the wall made of cells x cells quads."""
+    b = SceneBuilder()
+    grey, glow = b.material("grey", (0.5, 0.5, 0.5)), b.material("glow", (0.2, 0.2, 0.2), emissive=(3.0, 2.0, 1.0))
+    b.quad([[0, 0, 0], [0, 0, 1], [2, 0, 1], [2, 0, 0]], grey, UP)
+    edges = np.linspace(0.0, 1.0, cells + 1)
+    for y0, y1 in zip(edges[:-1], edges[1:]):
+        for z0, z1 in zip(edges[:-1], edges[1:]):
+            b.quad([[0, y0, z0], [0, y1, z0], [0, y1, z1], [0, y0, z1]], glow, (1, 0, 0))
+    scene = b.scene(f"facade {cells}")
+    # lightmap UVs by hand: the floor on the left half, the wall's cells tiled on the right
+    corners = scene.positions.reshape(-1, 3, 3)
+    floor = np.abs(corners[:, :, 1]).max(axis=1) < 1e-6
+    uv = np.where(floor[:, None, None], corners[:, :, [0, 2]] * [0.23, 0.46] + 0.02,
+                  corners[:, :, [2, 1]] * 0.46 + [0.52, 0.02])
+    scene.uv1 = uv.reshape(-1, 2).astype(np.float32)
+    return scene
+
+
+def test_ten_thousand_emitters_light_the_floor_as_the_same_area_merged():
+    merged = bake(_facade(1), BakeSettings(resolution=64))
+    many = bake(_facade(100), BakeSettings(resolution=64))
+    floor = np.abs(merged.patches.position[:, 1]) < 1e-6
+    a, b = merged.solution.incident[floor], many.solution.incident[floor]
+    assert merged.patches.position.shape == many.patches.position.shape
+    np.testing.assert_allclose(b.mean(axis=0), a.mean(axis=0), rtol=1e-2)
+    assert np.percentile(np.abs(b / a - 1), 90) < 0.05
