@@ -14,7 +14,7 @@ import pytest
 from patchlight.cli.main import main
 from patchlight.imaging.io import read_exr
 from patchlight.render import Renderer
-from patchlight.render.target import load_target
+from patchlight.inputs import open_input
 
 SIZE = 64
 RENDER = Path(__file__).with_name("blender_render.py")
@@ -33,7 +33,7 @@ def test_cycles_shows_the_baked_light_as_the_cpu_renderer(tmp_path):
     subprocess.run([sys.executable, str(RENDER), str(blend), str(tmp_path / "cycles.exr"), str(SIZE)],
                    check=True, capture_output=True, timeout=600)
     cycles = read_exr(tmp_path / "cycles.exr")
-    target = load_target(str(bake_dir))
+    target, _ = open_input(str(bake_dir)).target()
     camera = Renderer(target).default_camera()  # the room's own camera, which scene.glb carries
     view = [",".join(map(str, camera.eye)), ",".join(map(str, camera.target)), str(camera.fov)]
     assert main(["render", str(bake_dir), "--model", "lightmap", "--camera", *view, "--size", f"{SIZE}x{SIZE}",

@@ -13,7 +13,7 @@ from browser_support import three_missing
 from patchlight.cli.main import main
 from patchlight.imaging.io import read_image
 from patchlight.render import Renderer
-from patchlight.render.target import load_target
+from patchlight.inputs import open_input
 from patchlight.viewer.app import make_server
 from patchlight.render.settings import target_settings
 
@@ -42,7 +42,7 @@ def neighbourhood_span(picture: np.ndarray) -> np.ndarray:
 def cpu_and_three(browser, bake_dir, tmp_path) -> tuple[np.ndarray, np.ndarray]:
     """(CPU picture (H, W, 3), three.js picture (H, W, 4)) of the bake from its default camera,
     int32 0..255: `patchlight render --model lightmap`, and the viewer's scene.glb view."""
-    target = load_target(str(bake_dir))
+    target, _ = open_input(str(bake_dir)).target()
     c = Renderer(target).default_camera().to_json()
     cpu_png = tmp_path / "cpu.png"
     view = [",".join(map(str, c["eye"])), ",".join(map(str, c["target"])), str(c["fov"])]
