@@ -1,0 +1,51 @@
+"""What both writers put into a baked .glb: the lightmap textures and their description
+(the package docstring, "Export"), the unlit marker of vertex-baked light."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...imaging.lightmap import EncodedLightmap
+from .container import CLAMP_TO_EDGE, LINEAR_FILTER
+
+UNLIT = "KHR_materials_unlit"  # vertex-baked light: viewers show base colour x COLOR_0 as it is
+MOZ_LIGHTMAP, MOZ_RGBE = "MOZ_lightmap", "MOZ_texture_rgbe"  # the lightmap, and its HDR image
+HDR_MIME = "image/vnd.radiance"
+LIGHTMAP_NAME = "patchlight_lightmap"
+LIGHTMAP_HDR_NAME = "patchlight_lightmap_hdr"
+LIGHTMAP_SAMPLER = {"magFilter": LINEAR_FILTER, "minFilter": LINEAR_FILTER,
+                     "wrapS": CLAMP_TO_EDGE, "wrapT": CLAMP_TO_EDGE}
+
+
+def lightmap_description(lightmap: EncodedLightmap, meta: dict) -> dict:
+    """extras.patchlight.lightmap without its "texture" index; ValueError for bad images or scale."""
+    if not lightmap.png.startswith(b"\x89PNG\r\n\x1a\n") or not lightmap.hdr.startswith(b"#?"):
+        raise ValueError("save_baked_glb: the lightmap needs PNG and Radiance .hdr bytes")
+    if not 0 < lightmap.scale < math.inf:
+        raise ValueError(f"save_baked_glb: the lightmap's scale must be positive, got {lightmap.scale!r}")
+    return {**jsonable(meta), "texture": None, "texCoord": 1, "scale": lightmap.scale,
+            "intensity": _lightmap_intensity(lightmap)}
+
+
+def _lightmap_intensity(lightmap: EncodedLightmap) -> float:
+    """MOZ_lightmap's intensity: texel x scale is I; three.js's lightMap is irradiance pi I."""
+    return math.pi * lightmap.scale
+
+
+def lightmap_reference(texture: int, lightmap: EncodedLightmap) -> dict:
+    """A material's MOZ_lightmap extension."""
+    return {"index": texture, "texCoord": 1, "intensity": _lightmap_intensity(lightmap)}
+
+
+def jsonable(value):
+    """Numpy scalars and arrays inside dicts/lists turned into plain JSON values."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

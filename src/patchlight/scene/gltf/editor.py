@@ -1,0 +1,211 @@
+"""A glTF document edited as its JSON (`raw`): bufferViews and accessors appended, images
+beside a .gltf embedded, what nothing refers to any more dropped, and the whole written back
+as one GLB holding the source file's binary data and the new."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import PatchlightError
+from ...imaging.io import check_finite, json_text
+from .container import ARRAY_BUFFER, Document, ELEMENT_ARRAY_BUFFER, FLOAT, TYPE_WIDTHS, pack_glb
+from .baked import MOZ_LIGHTMAP, MOZ_RGBE
+
+class GlbEditor:
+    """raw: the document's JSON (edited in place); importer: the same file as a Document (its
+    accessors and bufferViews' bytes)."""
+
+    def __init__(self, path: Path, raw: dict, importer: Document):
+        self.path, self.raw, self.importer = path, raw, importer
+        for key in ("accessors", "bufferViews", "meshes", "nodes", "images", "textures", "samplers"):
+            if not isinstance(raw.get(key, []), list):
+                raise ValueError(f"'{key}' is not a list")
+            raw.setdefault(key, [])
+        self.source_views = len(raw["bufferViews"])
+        self.new_views: list[bytes] = []  # bytes of bufferViews source_views, source_views + 1, ...
+
+    def embed_external_images(self) -> None:
+        """Images in files beside a .gltf that a texture uses move into the .glb, their bytes
+        unchanged (a data: URI stays as it is; an image that cannot be read, or that nothing
+        uses, keeps its uri and is never read)."""
+        used = _used_images(self.raw)
+        for number, image in enumerate(self.raw["images"]):
+            uri = image.get("uri")
+            if not isinstance(uri, str) or uri.startswith("data:") or number not in used:
+                continue
+            try:
+                data = self.importer.resource(uri, f"image {number}")
+            except PatchlightError:
+                continue
+            mime = image.get("mimeType") or _image_mime(data)
+            if mime is None:
+                continue
+            del image["uri"]
+            image.update(bufferView=self.add_view(data), mimeType=mime)
+
+    def add_view(self, data: bytes, target: int | None = None, stride: int | None = None) -> int:
+        view = {"buffer": 0, "byteLength": len(data)}
+        if stride is not None:
+            view["byteStride"] = stride
+        if target is not None:
+            view["target"] = target
+        self.raw["bufferViews"].append(view)
+        self.new_views.append(bytes(data))
+        return len(self.raw["bufferViews"]) - 1
+
+    def add_accessor(self, values: np.ndarray, component: int, kind: str, vertex: bool, normalized: bool = False,
+                     bounds: bool = False) -> int:
+        """values (n, width) in the component type; vertex attributes padded to 4-byte elements."""
+        values = np.ascontiguousarray(values)
+        check_finite(values, f"{self.path.name}: a {kind} attribute")
+        element = values.shape[1] * values.itemsize
+        stride = None
+        if vertex and element % 4:
+            stride = element + (-element % 4)
+            padded = np.zeros((len(values), stride), np.uint8)
+            padded[:, :element] = values.view(np.uint8).reshape(len(values), element)
+            data = padded.tobytes()
+        else:
+            data = values.tobytes()
+        accessor = {"bufferView": self.add_view(data, ARRAY_BUFFER if vertex else ELEMENT_ARRAY_BUFFER, stride),
+                    "componentType": component, "count": len(values), "type": kind}
+        if normalized:
+            accessor["normalized"] = True
+        if bounds and len(values):
+            cast = float if component == FLOAT else int
+            accessor["min"] = [cast(v) for v in values.min(axis=0)]
+            accessor["max"] = [cast(v) for v in values.max(axis=0)]
+        self.raw["accessors"].append(accessor)
+        return len(self.raw["accessors"]) - 1
+
+    def copy_accessor(self, index: int, sources: np.ndarray, bounds: bool) -> int:
+        """A new vertex accessor holding elements `sources` of accessor `index`, same component
+        type, type and normalization (sparse substitutions applied)."""
+        original = self.raw["accessors"][index]
+        if original.get("type") not in TYPE_WIDTHS:
+            raise PatchlightError(f"{self.path}: accessor {index} of type {original.get('type')!r} "
+                                  f"cannot be a vertex attribute")
+        values = self.importer.accessor(index)[sources]
+        return self.add_accessor(values, original["componentType"], original["type"], vertex=True,
+                                 normalized=bool(original.get("normalized")),
+                                 bounds=bounds or "min" in original or "max" in original)
+
+    def compact(self) -> None:
+        """Drop accessors and bufferViews nothing refers to any more (the replaced vertices), and
+        renumber the references.  Skipped when the file uses an extension whose references to
+        accessors or views this writer does not know: then everything stays, unused or not."""
+        raw = self.raw
+        used_extensions = set(raw.get("extensionsUsed") or [])
+        if any(not (e in _KNOWN_EXTENSIONS or e.startswith("KHR_materials_")) for e in used_extensions):
+            self.view_order = list(range(len(raw["bufferViews"])))
+            return
+        references = _distinct(self.accessor_references())
+        referenced = sorted({holder[key] for holder, key in references})
+        accessor_map = {old: new for new, old in enumerate(referenced)}
+        for holder, key in references:
+            holder[key] = accessor_map[holder[key]]
+        raw["accessors"] = [raw["accessors"][old] for old in referenced]
+        references = _distinct(self.view_references())
+        views = sorted({holder[key] for holder, key in references})
+        view_map = {old: new for new, old in enumerate(views)}
+        for holder, key in references:
+            holder[key] = view_map[holder[key]]
+        self.view_order = views
+        raw["bufferViews"] = [raw["bufferViews"][old] for old in views]
+
+    def accessor_references(self):
+        """(holder dict, key) of every accessor reference this writer knows."""
+        raw = self.raw
+        for mesh in raw["meshes"]:
+            for primitive in mesh.get("primitives") or []:
+                yield from ((primitive["attributes"], name) for name in primitive.get("attributes") or {})
+                if primitive.get("indices") is not None:
+                    yield primitive, "indices"
+                for target in primitive.get("targets") or []:
+                    yield from ((target, name) for name in target)
+        for skin in raw.get("skins") or []:
+            if skin.get("inverseBindMatrices") is not None:
+                yield skin, "inverseBindMatrices"
+        for animation in raw.get("animations") or []:
+            for sampler in animation.get("samplers") or []:
+                yield from ((sampler, key) for key in ("input", "output") if key in sampler)
+        for node in raw["nodes"]:
+            instancing = (node.get("extensions") or {}).get("EXT_mesh_gpu_instancing") or {}
+            attributes = instancing.get("attributes") or {}
+            yield from ((attributes, name) for name in attributes)
+
+    def view_references(self):
+        raw = self.raw
+        for accessor in raw["accessors"]:
+            if accessor.get("bufferView") is not None:
+                yield accessor, "bufferView"
+            sparse = accessor.get("sparse") or {}
+            for part in ("indices", "values"):
+                if (sparse.get(part) or {}).get("bufferView") is not None:
+                    yield sparse[part], "bufferView"
+        for image in raw["images"]:
+            if image.get("bufferView") is not None:
+                yield image, "bufferView"
+        for mesh in raw["meshes"]:
+            for primitive in mesh.get("primitives") or []:
+                draco = (primitive.get("extensions") or {}).get("KHR_draco_mesh_compression") or {}
+                if draco.get("bufferView") is not None:
+                    yield draco, "bufferView"
+
+    def container(self) -> bytes:
+        """The GLB: the JSON chunk and one BIN chunk holding every bufferView, 8-byte aligned."""
+        blob = bytearray()
+        for view, old in zip(self.raw["bufferViews"], self.view_order):
+            data = self.new_views[old - self.source_views] if old >= self.source_views else \
+                bytes(self.importer.view_bytes(old))
+            blob += b"\0" * (-len(blob) % 8)
+            view.update(buffer=0, byteOffset=len(blob), byteLength=len(data))
+            blob += data
+        blob += b"\0" * (-len(blob) % 4)
+        self.raw["buffers"] = [{"byteLength": len(blob)}] if blob else []
+        if not self.raw["buffers"]:
+            del self.raw["buffers"]
+        for key in ("accessors", "bufferViews", "meshes", "nodes", "images", "textures", "samplers"):
+            if not self.raw[key]:  # glTF forbids empty top-level arrays
+                del self.raw[key]
+        return pack_glb(json_text(self.raw, "scene.glb", indent=None).encode("utf-8"), bytes(blob))
+
+
+_KNOWN_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_mesh_quantization", "KHR_texture_basisu",
+                     MOZ_LIGHTMAP, MOZ_RGBE,
+                     "EXT_texture_webp", "EXT_texture_avif", "KHR_xmp_json_ld", "EXT_mesh_gpu_instancing",
+                     "KHR_draco_mesh_compression", "KHR_animation_pointer"}
+
+
+def _distinct(references) -> list[tuple[dict, str]]:
+    """(holder, key) pairs, each once: primitives and morph targets may be shared by meshes."""
+    seen, out = set(), []
+    for holder, key in references:
+        if (id(holder), key) not in seen:
+            seen.add((id(holder), key))
+            out.append((holder, key))
+    return out
+
+
+def _used_images(raw: dict) -> set[int]:
+    """Indices of the images some texture names as its source (or an extension's source)."""
+    used = set()
+    for texture in raw.get("textures") or []:
+        if isinstance(texture, dict):
+            sources = [texture] + [e for e in (texture.get("extensions") or {}).values() if isinstance(e, dict)]
+            used.update(s["source"] for s in sources if isinstance(s.get("source"), int))
+    return used
+
+
+def _image_mime(data: bytes) -> str | None:
+    """The MIME type of PNG, JPEG, WebP or KTX2 bytes (None for anything else)."""
+    if data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return "image/png"
+    if data.startswith(b"\xff\xd8\xff"):
+        return "image/jpeg"
+    if data[:4] == b"RIFF" and data[8:12] == b"WEBP":
+        return "image/webp"
+    if data.startswith(b"\xabKTX 20\xbb\r\n\x1a\n"):
+        return "image/ktx2"
+    return None
