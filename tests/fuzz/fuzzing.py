@@ -279,9 +279,10 @@ def _non_finite(path: Path, rng: random.Random) -> str:
         with OpenEXR.File(str(path)) as exr:
             header = dict(exr.header())
             channels = {name: np.array(c.pixels) for name, c in exr.channels().items()}
-        rgb = channels["RGB"]
+        key = "RGBA" if "RGBA" in channels else "RGB"  # a bake's lightmap.exr carries its validity as A
+        rgb = channels[key]
         rgb.reshape(-1)[rng.randrange(rgb.size)] = value
-        OpenEXR.File(header, {"RGB": rgb}).write(str(path))
+        OpenEXR.File(header, {key: rgb}).write(str(path))
     return f"a {value} value"
 
 
