@@ -19,11 +19,11 @@ import os
 import secrets
 from pathlib import Path
 
+from . import bakedir
 from .errors import PatchlightError
 from .imaging.io import read_bytes
 
 LIGHTMAP_IMAGE = "patchlight_lightmap"
-SCENE_FILE, LIGHTMAP_FILE = "scene.glb", "lightmap.exr"
 
 
 def import_bpy():
@@ -53,7 +53,7 @@ def write_blend(bake_dir, out) -> Path:
     """Import the bake in `bake_dir` into an empty Blender scene, wire its lightmap and save
     `out` (.blend) atomically (module docstring); returns the path."""
     bake_dir, out = Path(bake_dir), Path(out)
-    glb, exr = bake_dir / SCENE_FILE, bake_dir / LIGHTMAP_FILE
+    glb, exr = bake_dir / bakedir.SCENE, bake_dir / bakedir.LIGHTMAP
     for needed in (glb, exr):
         if not needed.is_file():
             raise PatchlightError(f"{bake_dir}: not a bake directory ({needed.name} is missing)")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import bakedir
 from ..errors import PatchlightError
 from ..imaging.exposure import auto_exposure
 from ..imaging.io import read_bytes
@@ -56,7 +57,7 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
     manifest, data = scene_bundle(target, settings, camera, env, exposure, renderer.sky_cube(settings), env_note, patch,
                                   compare)
-    glb_path = None if target.bake_dir is None else target.bake_dir / "scene.glb"
+    glb_path = None if target.bake_dir is None else target.bake_dir / bakedir.SCENE
     glb = read_bytes(glb_path) if glb_path is not None and glb_path.is_file() else None
     manifest["scene_glb"] = glb is not None
     return ViewerServer(manifest_bytes(manifest), data, port, patch_view, glb)
