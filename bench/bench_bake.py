@@ -29,26 +29,25 @@ class RecordedRays:
 
     def __init__(self):
         self.batches = []
-        self._originals = (Tracer.intersect_chunk, Tracer.occluded)
+        self._originals = (Tracer.intersect_chunk, Tracer.occluded_chunk)
 
     def __enter__(self):
-        intersect_chunk, occluded = self._originals
+        intersect_chunk, occluded_chunk = self._originals
         record = self.batches.append
 
         def recorded_intersect_chunk(tracer, origins, directions):
             record((np.array(origins, np.float32), np.array(directions, np.float32), None))
             return intersect_chunk(tracer, origins, directions)
 
-        def recorded_occluded(tracer, origins, directions, tmax):
-            far = np.array(np.broadcast_to(np.asarray(tmax, np.float32), (len(origins),)))
-            record((np.array(origins, np.float32), np.array(directions, np.float32), far))
-            return occluded(tracer, origins, directions, tmax)
+        def recorded_occluded_chunk(tracer, origins, directions, tmax):
+            record((np.array(origins, np.float32), np.array(directions, np.float32), np.array(tmax, np.float32)))
+            return occluded_chunk(tracer, origins, directions, tmax)
 
-        Tracer.intersect_chunk, Tracer.occluded = recorded_intersect_chunk, recorded_occluded
+        Tracer.intersect_chunk, Tracer.occluded_chunk = recorded_intersect_chunk, recorded_occluded_chunk
         return self
 
     def __exit__(self, *exc):
-        Tracer.intersect_chunk, Tracer.occluded = self._originals
+        Tracer.intersect_chunk, Tracer.occluded_chunk = self._originals
 
     def count(self, occlusion: bool) -> int:
         return sum(len(o) for o, _, far in self.batches if (far is not None) == occlusion)

@@ -18,12 +18,12 @@ from .errors import PatchlightError
 from .limits import available_memory
 from .progress import Progress
 from .radiosity import adaptive
-from .radiosity.direct import direct_light
+from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
 from .radiosity.memory import check_bake_memory, form_factor_budget
-from .radiosity.sampling import gather_adaptive
+from .radiosity.sampling import gather_adaptive, walled_inside
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
@@ -34,8 +34,9 @@ from .texels import Texels
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
     solution, the (possibly re-indexed) scene with its lightmap UVs, stats for bake.json,
-    pass_incident: each pass's incident light (N, 3) float16, and directional: the directional
-    lightmap (`BakeSettings.directional`) or None."""
+    pass_incident: each pass's incident light (N, 3) float16, walled (N,) bool: the inside
+    texels left dark (`walled_inside`), and directional: the directional lightmap
+    (`BakeSettings.directional`) or None."""
 
     scene: Scene
     patches: Patches
@@ -44,12 +45,13 @@ class BakeResult:
     solution: Solution
     stats: dict = field(default_factory=dict)
     pass_incident: list = field(default_factory=list)
+    walled: np.ndarray | None = None
     directional: DirectionalLightmap | None = None
 
     def pass_images(self) -> list[np.ndarray]:
         """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is."""
         inside = self.status == adaptive.INSIDE
-        return [fill_lightmap(self.patches, I, inside) for I in self.pass_incident]
+        return [fill_lightmap(self.patches, I, inside, self.walled) for I in self.pass_incident]
 
     def texels(self) -> Texels:
         """The per-texel arrays of texels.npz."""
@@ -80,13 +82,14 @@ def _input_warnings(scene: Scene) -> list[str]:
     return [f"{where}: {n} {what}" for n, what in counted if n] + list(scene.extras.get("warnings", []))
 
 
-def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, gatherer: Gatherer, solution: Solution,
-                       per_light: list[np.ndarray], rows: np.ndarray, mode: str, advance) -> np.ndarray:
+def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walled: np.ndarray, gatherer: Gatherer,
+                       solution: Solution, per_light: list[np.ndarray], rows: np.ndarray, mode: str,
+                       advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
     sums = gather_directions(gatherer, solution.excident, rows, advance)
     add_direct(sums, patches, scene.baked_lights, per_light)
-    return fill_lightmap(patches, sums.lightmap_values(mode), inside)
+    return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
 
 def _join_cluster(address: str | None):
@@ -130,10 +133,10 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                             size, offset, settings.seed)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
-            points = texel_points(scene, patches, settings.texel_samples)
             lights = [[light] for light in scene.baked_lights] if settings.directional else [scene.baked_lights]
-            per_light = [direct_light(points, patches.normal, group, tracer, settings.falloff, sun_angle,
-                                      settings.sun_samples, offset) for group in lights]
+            per_light = [texel_direct_light(lambda n, rows: texel_points(scene, patches, n, rows), patches, group,
+                                            tracer, settings.falloff, sun_angle, settings.sun_samples, offset,
+                                            settings.texel_samples) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
             emitters = find_emitters(scene, patches)
             side = math.isqrt(settings.emitter_samples)
@@ -149,6 +152,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         status, order = gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
         inside = status == adaptive.INSIDE
+        walled = walled_inside(patches, inside, tracer, offset)
         rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
         pass_incident = []
         with progress.stage("passes", total=settings.passes) as advance:
@@ -162,13 +166,13 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             incident = solution.incident
             if settings.denoise:
                 incident = denoised_incident(patches, direct, solution.gathered, inside)
-            lightmap = fill_lightmap(patches, incident, inside)
+            lightmap = fill_lightmap(patches, incident, inside, walled)
         images = [lightmap]
         if settings.directional:
             valid = np.flatnonzero(~inside)
             with progress.stage("directional", total=len(valid)) as advance:
-                images.append(directional_images(scene, patches, inside, gatherer, solution, per_light, valid,
-                                                 settings.directional, advance))
+                images.append(directional_images(scene, patches, inside, walled, gatherer, solution, per_light,
+                                                 valid, settings.directional, advance))
         seams = None
         if settings.stitch:
             with progress.stage("seams"):
@@ -183,6 +187,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "computed_patches": int(counts[adaptive.COMPUTED]),
         "interpolated_patches": int(counts[adaptive.INTERPOLATED]),
         "inside_geometry_patches": int(counts[adaptive.INSIDE]),
+        "walled_inside_patches": int(walled.sum()),
         "gather": settings.gather,
         "rays_per_patch": gatherer.rays_per_patch,
         "rays_traced": rays_direct + ff.rays_probed + ff.rays + ff.rays_regathered,
@@ -205,4 +210,4 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
-    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_incident, directional)
+    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_incident, walled, directional)

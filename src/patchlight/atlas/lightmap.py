@@ -17,15 +17,19 @@ def valid_texels(patches: Patches, inside: np.ndarray) -> np.ndarray:
     return (patches.index >= 0) & ~patches.to_image(inside, fill=True)
 
 
-def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray) -> np.ndarray:
+def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray,
+                  walled: np.ndarray | None = None) -> np.ndarray:
     """(H, W, 3) lightmap of incident (N, 3): texels of patches inside geometry (inside (N,)
     bool) next to valid ones filled from them (up to DILATE_TEXELS rings deep, so bilinear
-    filtering at a joint reads no darkness; deeper ones stay black), then grown past chart
-    borders by DILATE_TEXELS rings."""
+    filtering at a joint reads no darkness; deeper ones stay black), but never the walled
+    ones (walled (N,) bool, radiosity.sampling.walled_inside: the foot of a wall thinner than
+    a texel, which would carry one side's light to the other), then grown past chart borders
+    by DILATE_TEXELS rings."""
     image = patches.to_image(incident.astype(np.float32))
     covered = patches.index >= 0
     valid = valid_texels(patches, inside)
-    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=covered)
+    fillable = covered if walled is None else covered & ~patches.to_image(walled, fill=False)
+    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=fillable)
     image[covered & ~valid] = 0.0
     image, _ = dilate(image, covered, texels=DILATE_TEXELS)
     return image

@@ -130,18 +130,23 @@ def _texel_size(tex, world_area):
     return size.astype(np.float32)
 
 
-def texel_points(scene: Scene, patches: Patches, n: int) -> np.ndarray:
-    """(N, n*n, 3) points spread over each texel's footprint on its triangle (an n x n grid
-    of sub-texel centres), for direct light without staircase shadow edges. A point that
-    falls off the triangle is replaced by the patch's own position, which lies on it."""
+def texel_points(scene: Scene, patches: Patches, n: int, rows: np.ndarray | None = None) -> np.ndarray:
+    """(R, n*n, 3) points spread over the footprint on its triangle of each texel of patches
+    `rows` (default: all), an n x n grid of sub-texel centres, for direct light without
+    staircase shadow edges. A point past an edge its triangle shares with another of the
+    chart continues the triangle's plane (exact on a flat chart, a texel's bend at most on a
+    curved one); a point past the chart's rim is replaced by the patch's own position."""
+    rows = np.arange(len(patches)) if rows is None else rows
+    position = patches.position[rows]
     if n <= 1:
-        return patches.position[:, None, :].astype(np.float64)
-    corners_uv = scene.uv1[scene.indices[patches.triangle]] * np.array([patches.width, patches.height])
-    corners = scene.positions[scene.indices[patches.triangle]].astype(np.float64)  # (N, 3, 3)
+        return position[:, None, :].astype(np.float64)
+    triangle = patches.triangle[rows]
+    corners_uv = scene.uv1[scene.indices[triangle]] * np.array([patches.width, patches.height])
+    corners = scene.positions[scene.indices[triangle]].astype(np.float64)  # (R, 3, 3)
     sub = (np.arange(n) + 0.5) / n
     sx, sy = np.meshgrid(sub, sub, indexing="ij")
-    px = patches.texel_x[:, None] + sx.ravel()[None]                              # (N, n*n)
-    py = patches.texel_y[:, None] + sy.ravel()[None]
+    px = patches.texel_x[rows, None] + sx.ravel()[None]                           # (R, n*n)
+    py = patches.texel_y[rows, None] + sy.ravel()[None]
     a, b, c = (corners_uv[:, i][:, None, :] for i in range(3))
     e1, e2 = b - a, c - a
     det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
@@ -151,5 +156,7 @@ def texel_points(scene: Scene, patches: Patches, n: int) -> np.ndarray:
     w2 = (e1[..., 0] * dy - e1[..., 1] * dx) / safe
     w0 = 1.0 - w1 - w2
     points = w0[..., None] * corners[:, None, 0] + w1[..., None] * corners[:, None, 1] + w2[..., None] * corners[:, None, 2]
-    off = (w0 < 0) | (w1 < 0) | (w2 < 0) | (np.abs(det) <= 1e-12)
-    return np.where(off[..., None], patches.position[:, None, :], points)
+    rim = uv_boundary_edges(scene.uv1, scene.indices)[triangle][:, None, :]  # (R, 1, 3): edges 01, 12, 20
+    off = (((w0 < 0) & rim[..., 1]) | ((w1 < 0) & rim[..., 2]) | ((w2 < 0) & rim[..., 0])
+           | (np.abs(det) <= 1e-12))
+    return np.where(off[..., None], position[:, None, :], points)

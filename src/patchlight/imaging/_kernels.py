@@ -12,6 +12,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+RING = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)  # sides, corners
+
 # Status codes returned by decode_scanlines instead of a positive byte offset.
 TRUNCATED = -1
 BAD_LENGTH = -2
@@ -136,8 +138,10 @@ def encode_scanlines(rgbe):
 @numba.njit(cache=True)
 def dilate_rings(image, known, allowed, rings):
     """Grow image (H, W, C) in place from its `known` (H, W) texels by up to `rings` rings:
-    each unknown texel in `allowed` with known 8-neighbours takes their mean (all texels of a
-    ring are filled from the rings before it). Returns the grown `known` mask."""
+    each unknown texel in `allowed` takes the mean of its known side neighbours, or, with
+    none, of its known corner neighbours: the nearest texels (so padding beside a dark texel
+    at a wall's foot copies it, not the lit texel diagonally across the wall). All texels of
+    a ring are filled from the rings before it. Returns the grown `known` mask."""
     h, w, c = image.shape
     known = known.copy()
     for _ in range(rings):
@@ -147,22 +151,23 @@ def dilate_rings(image, known, allowed, rings):
             for x in range(w):
                 if known[y, x] or not allowed[y, x]:
                     continue
-                count = 0
-                for dy in range(-1, 2):
-                    for dx in range(-1, 2):
-                        yy, xx = y + dy, x + dx
-                        if (dy or dx) and 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                for first, last in ((0, 4), (4, 8)):  # sides, then corners
+                    count = 0
+                    for k in range(first, last):
+                        yy, xx = y + RING[k, 0], x + RING[k, 1]
+                        if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
                             count += 1
+                    if count > 0:
+                        break
                 if count == 0:
                     continue
-                for k in range(c):
+                for ch in range(c):
                     total = 0.0
-                    for dy in range(-1, 2):
-                        for dx in range(-1, 2):
-                            yy, xx = y + dy, x + dx
-                            if (dy or dx) and 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                                total += image[yy, xx, k]
-                    image[y, x, k] = total / count
+                    for k in range(first, last):
+                        yy, xx = y + RING[k, 0], x + RING[k, 1]
+                        if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                            total += image[yy, xx, ch]
+                    image[y, x, ch] = total / count
                 grown[y, x] = True
                 any_grown = True
         known = grown

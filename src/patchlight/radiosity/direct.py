@@ -12,10 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..atlas.patches import Patches
 from ..scene.model import Light
 from ..rays.tracer import Tracer
 from ..shading.lights import from_scene_light, incident_light
 from .hemicube import concentric_disk
+
+REFINE_GRIDS = (8, 16)     # points per texel axis after the first look, where the points disagree
+REFINE_SPREAD = 0.02       # points disagree when their light spreads over 2 % of the brightest
 
 
 def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
@@ -37,29 +41,33 @@ def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
 
 
 def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samples: int) -> np.ndarray:
-    """(N, 3) incident light from a directional light with ray-traced (soft) shadows.
-    origins (N, K, 3): K shadow-ray origins per texel; shadow ray j leaves from point j mod K."""
+    """(N, K, 3) incident light from a directional light with ray-traced (soft) shadows at each
+    of K points per texel, shadow rays leaving from origins (N, K, 3). The sun's disc
+    directions are dealt out over the points: point k takes directions k, k + K, ..., or one
+    direction each when there are more points than directions."""
     dirs = _sun_directions(light, angle, samples)
-    k = origins.shape[1]
+    n, k = origins.shape[:2]
     rays = max(len(dirs), k)
-    visible_cos = np.zeros(len(origins))
+    visible_cos = np.zeros((n, k))
+    count = np.zeros(k)
     for j in range(rays):
-        d = dirs[j % len(dirs)]
+        d = dirs[(j + j // len(dirs)) % len(dirs)]  # a Latin square: no column of points shares one
         cos = normals @ d
         lit = np.flatnonzero(cos > 0)
         blocked = tracer.occluded(origins[lit, j % k], np.broadcast_to(d, (len(lit), 3)), np.float32(1e30))
-        visible_cos[lit] += np.where(blocked, 0.0, cos[lit])
-    return (visible_cos / rays)[:, None] * light.radiometric[None] / np.pi
+        visible_cos[lit, j % k] += np.where(blocked, 0.0, cos[lit])
+        count[j % k] += 1
+    return (visible_cos / count)[..., None] * light.radiometric / np.pi
 
 
 def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
-    """(N, 3) incident light from a point or spot light with ray-traced shadows, averaged
-    over the K points per texel of points (N, K, 3). The light is evaluated at the points
+    """(N, K, 3) incident light from a point or spot light with ray-traced shadows at each of
+    the K points per texel of points (N, K, 3). The light is evaluated at the points
     themselves; shadow rays leave from `origins` (N, K, 3), the points lifted. The
     falloff and cone are the runtime models' own (shading.lights, the NumPy twin of the
     GLSL), so baked and real-time light agree."""
     lamp = from_scene_light(light, falloff, f"light {light.name or light.kind!r}")
-    value = np.zeros((len(points), 3))
+    value = np.zeros(points.shape[:2] + (3,))
     for k in range(points.shape[1]):
         L, I = incident_light(lamp, points[:, k])
         strength = np.maximum(np.einsum("ij,ij->i", normals, L), 0.0)[:, None] * I
@@ -67,29 +75,82 @@ def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff:
         to_lamp = lamp.position - origins[lit, k]
         d = np.linalg.norm(to_lamp, axis=1)
         blocked = tracer.occluded(origins[lit, k], to_lamp / d[:, None], (d * (1 - 1e-4)).astype(np.float32))
-        value[lit] += np.where(blocked[:, None], 0.0, strength[lit])
-    return value / points.shape[1]
+        value[lit, k] = np.where(blocked[:, None], 0.0, strength[lit])
+    return value
 
 
-def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
-                 falloff: str = "inverse-square", sun_angle: float | None = None,
-                 sun_samples: int = 16, lift=0.0) -> np.ndarray:
-    """(N, 3) f32 incident light I from every light at `points` (N, 3), or (N, K, 3) for K
-    points spread over each texel, with unit normals (N, 3). Shadow rays leave from the
-    points lifted by `lift` metres along the normal (a scalar or (N,)), so that they clear
-    their own surface; the light itself is evaluated on the surface. sun_angle (radians)
-    overrides each sun's."""
+def point_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
+                falloff: str = "inverse-square", sun_angle: float | None = None,
+                sun_samples: int = 16, lift=0.0) -> np.ndarray:
+    """(N, K, 3) incident light from every light at each of K points per texel, points
+    (N, K, 3) with unit normals (N, 3) per texel; see `direct_light`."""
     points = np.asarray(points, np.float64)
-    if points.ndim == 2:
-        points = points[:, None, :]
     normals = np.asarray(normals, np.float64)
     lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))[:, None, None]
     origins = points + lift * normals[:, None]
-    total = np.zeros((len(points), 3))
+    total = np.zeros(points.shape[:2] + (3,))
     for light in lights:
         if light.kind == "directional":
             angle = light.angle if sun_angle is None else sun_angle
             total += sun_light(origins, normals, light, tracer, angle, sun_samples)
         else:
             total += local_light(points, origins, normals, light, tracer, falloff)
-    return total.astype(np.float32)
+    return total
+
+
+def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
+                 falloff: str = "inverse-square", sun_angle: float | None = None,
+                 sun_samples: int = 16, lift=0.0) -> np.ndarray:
+    """(N, 3) f32 incident light I from every light at `points` (N, 3), or the mean over
+    (N, K, 3) K points spread over each texel, with unit normals (N, 3). Shadow rays leave
+    from the points lifted by `lift` metres along the normal (a scalar or (N,)), so that they
+    clear their own surface; the light itself is evaluated on the surface. sun_angle
+    (radians) overrides each sun's."""
+    points = np.asarray(points, np.float64)
+    if points.ndim == 2:
+        points = points[:, None, :]
+    return point_light(points, normals, lights, tracer, falloff, sun_angle, sun_samples, lift).mean(axis=1).astype(np.float32)
+
+
+def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer: Tracer,
+                       falloff: str = "inverse-square", sun_angle: float | None = None,
+                       sun_samples: int = 16, lift=0.0, first: int = 2) -> np.ndarray:
+    """(N, 3) f32 the mean of the lamps' light over each texel's area, refined where it varies.
+
+    points_of(n, rows): (R, n * n, 3) points on an n x n grid over the texels of patches
+    `rows` (atlas.raster.texel_points). Every texel is sampled on a first x first grid; where its
+    points disagree (a shadow edge or a cone edge crosses it), and next to such a texel (an
+    edge may slip between the first points), it is sampled again on the next, finer grid,
+    and so on while the points still disagree: a hard edge gives the lit fraction of the
+    texel's area, to within the finest grid's resolution."""
+    lift = np.broadcast_to(np.asarray(lift, np.float32), (len(patches),))
+    rows = np.arange(len(patches))
+    total = np.zeros((len(patches), 3), np.float32)
+    for n in (first, *REFINE_GRIDS):
+        if len(rows) == 0 or not lights:
+            break
+        values = point_light(points_of(n, rows), patches.normal[rows], lights, tracer, falloff, sun_angle,
+                             sun_samples, lift[rows])
+        total[rows] = values.mean(axis=1)
+        rows = _with_neighbours(patches, rows[_disagree(values)]) if n == first else rows[_disagree(values)]
+    return total
+
+
+def _disagree(values: np.ndarray) -> np.ndarray:
+    """(R,) bool: texels whose points' light (R, K, 3) spreads over more than
+    REFINE_SPREAD of its largest value in some channel."""
+    hi, lo = values.max(axis=1), values.min(axis=1)
+    return np.any(hi - lo > REFINE_SPREAD * hi, axis=1)
+
+
+def _with_neighbours(patches: Patches, rows: np.ndarray) -> np.ndarray:
+    """Patch ids `rows` and their covered 8-neighbours in the lightmap, sorted."""
+    y, x = patches.texel_y[rows], patches.texel_x[rows]
+    found = [rows]
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            yy, xx = y + dy, x + dx
+            ok = (yy >= 0) & (yy < patches.height) & (xx >= 0) & (xx < patches.width)
+            ids = patches.index[yy[ok], xx[ok]]
+            found.append(ids[ids >= 0])
+    return np.unique(np.concatenate(found)).astype(np.int64)

@@ -13,7 +13,8 @@ from ..atlas.patches import Patches
 from ..config import BakeSettings
 from ..progress import Progress
 from ..rays.inside import is_inside
-from . import adaptive
+from ..rays.tracer import Tracer
+from . import _kernels, adaptive
 from .solve import FormFactors, solve
 
 REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
@@ -56,3 +57,24 @@ def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> 
     status[rows] = adaptive.COMPUTED
     back = ff.add(rows.astype(np.int64), progress=advance)
     status[rows[is_inside(back, "patch")]] = adaptive.INSIDE
+
+
+def walled_inside(patches: Patches, inside: np.ndarray, tracer: Tracer, offset: np.ndarray) -> np.ndarray:
+    """(N,) bool: patches inside geometry (inside (N,) bool) whose valid 8-neighbours lie on
+    both sides of it (the foot of a wall thinner than a texel): the straight line between two
+    of them, lifted off the surface by offset (N,), is blocked. Filled from either side, such
+    a texel would carry that side's light through the wall; it stays dark instead."""
+    rows = np.flatnonzero(inside)
+    y, x = patches.texel_y[rows, None] + _kernels.NEIGHBOURS[:, 0], patches.texel_x[rows, None] + _kernels.NEIGHBOURS[:, 1]
+    on_map = (y >= 0) & (y < patches.height) & (x >= 0) & (x < patches.width)
+    ids = np.where(on_map, patches.index[np.clip(y, 0, patches.height - 1), np.clip(x, 0, patches.width - 1)], -1)
+    usable = (ids >= 0) & ~inside[np.maximum(ids, 0)]
+    first = ids[np.arange(len(ids)), np.argmax(usable, axis=1)]
+    row, col = np.nonzero(usable & (ids != first[:, None]))
+    lifted = patches.position + offset[:, None] * patches.normal
+    start, end = lifted[first[row]], lifted[ids[row, col]]
+    length = np.linalg.norm(end - start, axis=1)
+    blocked = tracer.occluded(start, (end - start) / np.maximum(length, 1e-30)[:, None], length)
+    walled = np.zeros(len(patches), bool)
+    walled[rows[np.unique(row[blocked])]] = True
+    return walled
