@@ -20,7 +20,7 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, gather_directions, split_maps
-from .radiosity.emitters import emitter_light, find_emitters, two_sided_triangles
+from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
 from .radiosity.memory import check_bake_memory, form_factor_budget
 from .radiosity.sampling import gather_adaptive, walled_inside
@@ -139,11 +139,12 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                                             settings.texel_samples) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
             emitters = find_emitters(scene, patches)
-            side = math.isqrt(settings.emitter_samples)
-            if emitters is not None and side > 0:
-                direct += emitter_light(emitters, patches, gatherer.tri_uv1, texel_points(scene, patches, side), offset,
-                                        tracer, gatherer.rays_per_patch, settings.seed)
-                gatherer.emitters, gatherer.nee_samples = emitters, side * side
+            samples = samples_per_texel(settings.emitter_samples)
+            if emitters is not None and samples > 0:
+                points = texel_points(scene, patches, math.isqrt(samples))
+                direct += emitter_light(emitters, patches, gatherer.tri_uv1, points, offset, tracer,
+                                        gatherer.rays_per_patch, settings.seed)
+                gatherer.emitters, gatherer.nee_samples = emitters, samples
         rays_direct = tracer.rays_traced
         gatherer.cluster = cluster
         budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)

@@ -4,7 +4,8 @@ The rays are the bake's pattern (hemicube pixels with their multiplier map, or s
 cosine rays), turned about the patch's normal exactly as in its gather, resolved through the
 same item buffer; each ray shows the excident light B of the patch it meets (the final
 solution, texels.npz), the sky's radiance, or a mark for a back face or a lost hit. So the
-picture is the bake's own view, and its weighted sum is the patch's gathered light S + F B.
+picture is the bake's own view, and its weighted sum, less the emitted light the direct
+stage's next-event estimation holds instead (its MIS share), is the patch's gathered light.
 
 Pictures (`PatchView.picture`): a hemicube of size N unfolds into a 2N x 2N cross as the
 radiosity article draws it, the front face (N x N, looking along the normal) in the middle
@@ -33,7 +34,8 @@ class PatchView:
     """One patch's gather. texel (x, y); method, size (hemicube pixels across, or rays asked
     for); seen (D,) i32 patch id or SKY / BACK_FACE / LOST per ray; origin (3,) the lifted
     ray origin; directions (D, 3) world; local (D, 3) the pattern in the patch's frame
-    (z = normal, before turning); weights (D,) summing to 1; radiance (D, 3) f32 seen."""
+    (z = normal, before turning); weights (D,) summing to 1; radiance (D, 3) f32 seen;
+    next_event (D, 3) f32 the part of it emitted that the direct stage counts instead."""
 
     texel: tuple[int, int]
     method: str
@@ -44,11 +46,13 @@ class PatchView:
     local: np.ndarray
     weights: np.ndarray
     radiance: np.ndarray
+    next_event: np.ndarray
 
     @property
     def gathered(self) -> np.ndarray:
-        """(3,) the weighted sum of what the rays see: the gathered light S + F B."""
-        return (self.weights[:, None] * self.radiance).sum(axis=0)
+        """(3,) the weighted sum of what the rays see, less what next-event estimation holds:
+        the gathered light."""
+        return (self.weights[:, None] * (self.radiance - self.next_event)).sum(axis=0)
 
     def pixels(self) -> tuple[np.ndarray, np.ndarray, int, int]:
         """(rows, columns) of each ray's pixel in the picture, and its height and width."""
@@ -128,7 +132,7 @@ class PatchViews:
     def __init__(self, bake_dir: str | Path):
         from . import bakedir
         from .atlas.raster import rasterize
-        from .radiosity.emitters import two_sided_triangles
+        from .radiosity.emitters import find_emitters, samples_per_texel, two_sided_triangles
         from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
         from .rays.tracer import Tracer
         from .texels import read_bake_texels
@@ -147,9 +151,11 @@ class PatchViews:
         scene = bakedir.read_scene(bake_dir)
         height, width = self.texels.status.shape
         self.patches, _ = rasterize(scene, width, height)
+        samples = samples_per_texel(int(settings.get("emitter_samples", 0)))
+        emitters = find_emitters(scene, self.patches) if samples else None
         self.gatherer = Gatherer(self.patches, corner_uv1(scene), two_sided_triangles(scene),
                                  Tracer(scene.positions, scene.indices), scene.sky, method, size,
-                                 ray_offsets(scene, self.patches), seed)
+                                 ray_offsets(scene, self.patches), seed, emitters, samples)
         self.size = size
 
     def at(self, x: int, y: int) -> PatchView:
@@ -160,15 +166,18 @@ class PatchViews:
                                   "pick a texel a surface covers)")
         row = int(p.index[y, x])
         g = self.gatherer
-        seen, directions = g.look(row)
+        seen, directions, shares = g.look(row)
         radiance = np.zeros((len(seen), 3), np.float32)
         hit = seen >= 0
-        radiance[hit] = self.texels.excident[p.texel_y[seen[hit]], p.texel_x[seen[hit]]]
+        y, x = p.texel_y[seen[hit]], p.texel_x[seen[hit]]
+        radiance[hit] = self.texels.excident[y, x]
+        next_event = np.zeros_like(radiance)
+        next_event[hit] = self.texels.emission[y, x] * (1.0 - shares[hit, None])
         sky = seen == SKY
         if g.sky is not None and sky.any():
             radiance[sky] = g.sky.radiance(directions[sky])
         origin = p.position[row] + g.offset[row] * p.normal[row]
-        return PatchView((x, y), g.method, self.size, seen, origin, directions, g.dirs, g.weights, radiance)
+        return PatchView((x, y), g.method, self.size, seen, origin, directions, g.dirs, g.weights, radiance, next_event)
 
 
 def parse_texel(text: str, where: str = "--patch") -> tuple[int, int]:

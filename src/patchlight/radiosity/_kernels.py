@@ -148,32 +148,27 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
 
 
 @nb.njit(cache=True, nogil=True)
-def emission_seen(seen, tri, dist, dirs, local_dirs, weights, emission, pdf_area, tri_normal, two_sided,
-                  nee_samples):
-    """(R, 3) f32: the emitted light each of R patches' D gather rays see, MIS-weighted
-    against `nee_samples` next-event samples per texel (power heuristic; emitter_rays is the
-    other half). seen (R * D,) as item_buffer_rows takes it; tri, dist: the rays' hit
-    triangles and distances; dirs (R * D, 3); local_dirs (D, 3) with z along the normal;
-    weights (D,); emission (N, 3); pdf_area (T,) the next-event pdf per m^2 of each
-    triangle (0: never sampled); tri_normal (T, 3); two_sided (T,)."""
-    d = weights.shape[0]
-    rows = seen.shape[0] // d
-    out = np.zeros((rows, 3), np.float32)
-    for r in range(rows):
-        for j in range(d):
-            i = r * d + j
-            s = seen[i]
-            if s < 0 or (emission[s, 0] <= 0.0 and emission[s, 1] <= 0.0 and emission[s, 2] <= 0.0):
-                continue
-            t = tri[i]
-            w = 1.0
-            if pdf_area[t] > 0.0:
-                cos_l = -(tri_normal[t, 0] * dirs[i, 0] + tri_normal[t, 1] * dirs[i, 1] + tri_normal[t, 2] * dirs[i, 2])
-                cos_l = max(abs(cos_l), 1e-12)
-                pdf = pdf_area[t] * dist[i] * dist[i] / cos_l
-                w = power_heuristic(d, local_dirs[j, 2] / np.pi, nee_samples, pdf)
-            for c in range(3):
-                out[r, c] += weights[j] * w * emission[s, c]
+def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_normal, two_sided, nee_samples):
+    """(R * D,) f32: the share of its emission each gather ray that hits an emitting patch
+    counts (1 - 0), 0 for the other rays: its MIS weight against `nee_samples` next-event
+    samples per texel (power heuristic; emitter_rays is the other half). seen (R * D,) as
+    item_buffer_rows takes it; tri, dist: the rays' hit triangles and distances; dirs
+    (R * D, 3); local_dirs (D, 3) with z along the normal; emission (N, 3); pdf_area (T,) the
+    next-event pdf per m^2 of each triangle (0: never sampled); tri_normal (T, 3);
+    two_sided (T,)."""
+    d = local_dirs.shape[0]
+    out = np.zeros(seen.shape[0], np.float32)
+    for i in range(seen.shape[0]):
+        s = seen[i]
+        if s < 0 or (emission[s, 0] <= 0.0 and emission[s, 1] <= 0.0 and emission[s, 2] <= 0.0):
+            continue
+        t = tri[i]
+        out[i] = 1.0
+        if pdf_area[t] > 0.0:
+            cos_l = -(tri_normal[t, 0] * dirs[i, 0] + tri_normal[t, 1] * dirs[i, 1] + tri_normal[t, 2] * dirs[i, 2])
+            cos_l = max(abs(cos_l), 1e-12)
+            pdf = pdf_area[t] * dist[i] * dist[i] / cos_l
+            out[i] = power_heuristic(d, local_dirs[i % d, 2] / np.pi, nee_samples, pdf)
     return out
 
 

@@ -12,6 +12,7 @@ the number of emitters.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,12 @@ class Emitters:
     pdf_area: np.ndarray
     tri_normal: np.ndarray
     tri_two_sided: np.ndarray
+
+
+def samples_per_texel(emitter_samples: int) -> int:
+    """The next-event samples a texel takes: `emitter_samples` rounded down to a square
+    (they lie on an n x n grid over the texel)."""
+    return math.isqrt(emitter_samples) ** 2
 
 
 def two_sided_triangles(scene: Scene) -> np.ndarray:

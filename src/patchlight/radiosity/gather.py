@@ -124,10 +124,12 @@ class Gatherer:
                                                                          self.weights, B), self._chunks(rows))
         return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
-    def look(self, row: int) -> tuple[np.ndarray, np.ndarray]:
+    def look(self, row: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """What patch `row` sees through the bake's own pattern, turned as in its gather: the
-        item buffer (D,) (patch id or SKY / BACK_FACE / LOST) and the world directions (D, 3)."""
-        return self._see(np.array([row], np.int64), self.dirs)[:2]
+        item buffer (D,) (patch id or SKY / BACK_FACE / LOST), the world directions (D, 3) and
+        the share of its emission each ray counts (D,) (`emission_shares`)."""
+        seen, dirs, hits = self._see(np.array([row], np.int64), self.dirs)
+        return seen, dirs, self.emission_shares(seen, hits, dirs)
 
     def _see(self, rows: np.ndarray, local_dirs: np.ndarray):
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
@@ -154,12 +156,19 @@ class Gatherer:
             progress(len(rows))
         return GatherRows(F, S, back, int(np.count_nonzero(seen == LOST)))
 
-    def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
-        """(R, 3) emitted light the rays see: all of it without next-event estimation, else
-        its MIS share (the direct stage's `emitter_light` holds the rest)."""
+    def emission_shares(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
+        """(R * D,) the share of its emission each ray counts: 1 on emitters without
+        next-event estimation, else its MIS weight (the direct stage's `emitter_light`
+        holds the rest); 0 for rays that meet no emitting patch."""
         e = self.emitters
-        emission = self.patches.emission
         if e is None or self.nee_samples == 0:
-            return _kernels.item_buffer_times(seen, self.weights, emission)
-        return _kernels.emission_seen(seen, hits.tri, hits.t, dirs, self.dirs, self.weights, emission,
-                                      e.pdf_area, e.tri_normal, e.tri_two_sided, float(self.nee_samples))
+            return (seen >= 0) & np.any(self.patches.emission[np.maximum(seen, 0)] > 0, axis=1)
+        return _kernels.emission_shares(seen, hits.tri, hits.t, dirs, self.dirs, self.patches.emission,
+                                        e.pdf_area, e.tri_normal, e.tri_two_sided, float(self.nee_samples))
+
+    def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
+        """(R, 3) f32 the emitted light the rays count (`emission_shares`), weighted."""
+        d = len(self.weights)
+        shares = self.emission_shares(seen, hits, dirs).reshape(-1, d) * self.weights
+        emitted = self.patches.emission[np.maximum(seen, 0)].reshape(-1, d, 3)
+        return np.einsum("rd,rdc->rc", shares, emitted).astype(np.float32)
