@@ -3,7 +3,8 @@
 Compute every 4th texel (spacing 4). Then, halving the spacing each round: Pass Type 1
 examines texels halfway between two decided texels (horizontally or vertically), Pass
 Type 2 the centre of four. A texel gets its own gather only when its neighbours' ratio falls
-below threshold = accuracy ** spacing in any channel; otherwise it is their mean. Texels
+below threshold = accuracy ** spacing in any channel, or below what the gather's own noise
+allows if that is lower (a noise-aware threshold); otherwise it is their mean. Texels
 whose neighbours are uncovered, in another UV chart or inside geometry are always computed,
 so nothing is interpolated across chart borders or from darkness inside walls.
 
@@ -26,6 +27,13 @@ from . import _kernels
 UNDECIDED, COMPUTED, INTERPOLATED, INSIDE = 0, 1, 2, 3
 STATUS_COLOURS = np.array([[0, 0, 0], [220, 40, 40], [40, 200, 60], [40, 80, 230]], np.uint8)  # sRGB, by status
 SPACING = 4
+NOISE_SIGMAS = 2.0  # neighbours differing by less than this many standard deviations of noise agree
+
+
+def gather_noise(rays: int) -> float:
+    """Relative standard deviation of a gather of `rays` cosine rays over light of unit
+    contrast (std / mean = 1): 1 / sqrt(rays)."""
+    return 1.0 / np.sqrt(rays)
 
 
 @dataclass
@@ -81,14 +89,17 @@ def ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where((a == 0) & (b == 0), 1.0, out)
 
 
-def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float) -> np.ndarray:
+def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise: float = 0.0) -> np.ndarray:
     """Decide every target of `step` in place in `status`; returns the ids to compute now.
 
-    G: (N, 3) current gathered light of every decided patch."""
+    G: (N, 3) current gathered light of every decided patch. noise: the relative standard
+    deviation of one gather (`gather_noise`); two gathers of the same light differ by up to
+    NOISE_SIGMAS sqrt(2) of it, so the threshold never asks for more than that (a neighbour
+    pair that differs only by noise is interpolated: the mean has less noise than a gather)."""
     nbs = step.neighbours
     nb_status = np.where(nbs >= 0, status[np.maximum(nbs, 0)], -1)
     usable = np.all((nb_status == COMPUTED) | (nb_status == INTERPOLATED), axis=1)
-    threshold = accuracy ** step.spacing
+    threshold = min(accuracy ** step.spacing, 1.0 - NOISE_SIGMAS * np.sqrt(2.0) * noise)
     g = G[np.maximum(nbs, 0)]  # (K, m, 3)
     pairs = [(0, 1)] if nbs.shape[1] == 2 else [(0, 1), (2, 3)]
     similar = np.ones(len(nbs), bool)

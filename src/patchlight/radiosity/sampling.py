@@ -33,6 +33,7 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
     else:
         grid, phases = np.arange(n), []
     order = adaptive.flatten(phases)
+    noise = adaptive.gather_noise(ff.gatherer.rays_per_patch) if settings.gather == "stratified" else 0.0
     with progress.stage("gather", total=n) as advance:
         _compute(ff, grid, status, advance)
         B = None
@@ -44,7 +45,7 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
                                  passes, max(settings.tolerance, REFINE_TOLERANCE), B)
                 B, G = solution.excident, solution.gathered
                 for step in phase:
-                    _compute(ff, adaptive.decide(step, status, G, accuracy), status, advance)
+                    _compute(ff, adaptive.decide(step, status, G, accuracy, noise), status, advance)
     return status, order
 
 
