@@ -99,8 +99,8 @@ class BakeSettings:
                               "accuracy ^ spacing", lo=0, hi=1, lo_open=True, hi_open=True, typical="0.98")
     sun_samples: int = setting(16, "rays / texel", "shadow rays over the sun's disc when its angle is > 0", lo=1,
                                whole=True, typical="16")
-    emitter_samples: int = setting(16, "rays / texel", "shadow rays to emissive triangles, n x n over the texel "
-                                   "(0: the gather alone finds them)", lo=0, hi=1024, whole=True, typical="16")
+    emitter_samples: int = setting(64, "rays / texel", "shadow rays to emissive triangles, n x n over the texel "
+                                   "(0: the gather alone finds them)", lo=0, hi=1024, whole=True, typical="64")
     texel_samples: int = setting(2, "per axis", "direct light averaged over n x n points of each texel", lo=1, hi=4,
                                  whole=True, typical="2")
     sun_angle: float | None = setting(None, "degrees", "the sun's angular diameter (0 = hard shadows)", lo=0, hi=90,
