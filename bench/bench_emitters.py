@@ -16,27 +16,33 @@ import numpy as np
 
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
-from patchlight.scene import SceneBuilder
+from patchlight.scene.model import Material, Scene, face_normals
 
 REPEATS = 3
 
 
-def facade(cells: int):
-    """The scene, with lightmap UVs laid by hand: floor on the left half, wall on the right."""
-    b = SceneBuilder()
-    grey, glow = b.material("grey", (0.5, 0.5, 0.5)), b.material("glow", (0.2, 0.2, 0.2), emissive=(3.0, 2.0, 1.0))
-    b.quad([[0, 0, 0], [0, 0, 1], [2, 0, 1], [2, 0, 0]], grey, (0, 1, 0))
+def facade(cells: int) -> Scene:
+    """The scene as arrays: the floor quad, then the wall's cells x cells quads (x = 0, facing
+    +x), with lightmap UVs laid by hand: floor on the left half, wall on the right."""
     edges = np.linspace(0.0, 1.0, cells + 1)
-    for y0, y1 in zip(edges[:-1], edges[1:]):
-        for z0, z1 in zip(edges[:-1], edges[1:]):
-            b.quad([[0, y0, z0], [0, y1, z0], [0, y1, z1], [0, y0, z1]], glow, (1, 0, 0))
-    scene = b.scene(f"facade {cells} x {cells}")
-    corners = scene.positions.reshape(-1, 3, 3)
-    floor = np.abs(corners[:, :, 1]).max(axis=1) < 1e-6
-    uv = np.where(floor[:, None, None], corners[:, :, [0, 2]] * [0.23, 0.46] + 0.02,
-                  corners[:, :, [2, 1]] * 0.46 + [0.52, 0.02])
-    scene.uv1 = uv.reshape(-1, 2).astype(np.float32)
-    return scene
+    y0, z0 = (a.ravel() for a in np.meshgrid(edges[:-1], edges[:-1], indexing="ij"))
+    y1, z1 = y0 + 1.0 / cells, z0 + 1.0 / cells
+    zero = np.zeros_like(y0)
+    quads = np.concatenate([[[[0, 0, 0], [0, 0, 1], [2, 0, 1], [2, 0, 0]]],
+                            np.stack([np.stack([zero, y0, z0], -1), np.stack([zero, y1, z0], -1),
+                                      np.stack([zero, y1, z1], -1), np.stack([zero, y0, z1], -1)], axis=1)])
+    tris = quads[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3, 3).astype(np.float32)   # (2 Q, 3, 3)
+    uv = np.where(np.arange(len(tris))[:, None, None] < 2, tris[:, :, [0, 2]] * [0.23, 0.46] + 0.02,
+                  tris[:, :, [2, 1]] * 0.46 + [0.52, 0.02])
+    positions = tris.reshape(-1, 3)
+    indices = np.arange(len(positions), dtype=np.int32).reshape(-1, 3)
+    normal, _ = face_normals(positions, indices)
+    materials = [Material("grey", base_color=np.array([0.5, 0.5, 0.5, 1], np.float32)),
+                 Material("glow", base_color=np.array([0.2, 0.2, 0.2, 1], np.float32),
+                          emissive=np.array([3.0, 2.0, 1.0], np.float32))]
+    return Scene(positions=positions, normals=np.repeat(normal, 3, axis=0), uv0=uv.reshape(-1, 2).astype(np.float32),
+                 indices=indices, material_ids=(np.arange(len(tris)) >= 2).astype(np.int32), materials=materials,
+                 uv1=uv.reshape(-1, 2).astype(np.float32), name=f"facade {cells} x {cells}")
 
 
 def main() -> None:
