@@ -107,12 +107,13 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
         key = np.int64(p) * 1000003 + seed
         perm_pick = _permutation(k_count, key, 0)
         perm_point = _permutation(k_count, key, k_count)
-        nx = normal[p].astype(np.float64)
+        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
         for j in range(k_count):
             i = r * k_count + j
-            o = points[r, j] + lift[p] * nx
-            for a in range(3):
-                origins[i, a] = o[a]
+            ox = points[r, j, 0] + lift[p] * nx
+            oy = points[r, j, 1] + lift[p] * ny
+            oz = points[r, j, 2] + lift[p] * nz
+            origins[i, 0], origins[i, 1], origins[i, 2] = ox, oy, oz
             pick = (perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j)) / k_count
             e = min(np.searchsorted(cdf, pick, side="right"), m - 1)
             lo = cdf[e - 1] if e > 0 else 0.0
@@ -122,14 +123,16 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
             s1 = np.sqrt(min(max((pick - lo) / share, 0.0), 1.0))
             s2 = (perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1)) / k_count
             bu, bv = s1 * (1.0 - s2), s1 * s2
-            y = (1.0 - bu - bv) * corners[e, 0] + bu * corners[e, 1] + bv * corners[e, 2]
-            d = y - o
-            dist = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            bw = 1.0 - bu - bv
+            dx = bw * corners[e, 0, 0] + bu * corners[e, 1, 0] + bv * corners[e, 2, 0] - ox
+            dy = bw * corners[e, 0, 1] + bu * corners[e, 1, 1] + bv * corners[e, 2, 1] - oy
+            dz = bw * corners[e, 0, 2] + bu * corners[e, 1, 2] + bv * corners[e, 2, 2] - oz
+            dist = np.sqrt(dx * dx + dy * dy + dz * dz)
             if dist <= 0.0:
                 continue
-            d /= dist
-            cos_r = nx[0] * d[0] + nx[1] * d[1] + nx[2] * d[2]
-            cos_l = -(em_normal[e, 0] * d[0] + em_normal[e, 1] * d[1] + em_normal[e, 2] * d[2])
+            dx, dy, dz = dx / dist, dy / dist, dz / dist
+            cos_r = nx * dx + ny * dy + nz * dz
+            cos_l = -(em_normal[e, 0] * dx + em_normal[e, 1] * dy + em_normal[e, 2] * dz)
             if em_two_sided[e]:
                 cos_l = abs(cos_l)
             if cos_r <= 0.0 or cos_l <= 0.0:
@@ -140,8 +143,8 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
             pdf = share / area[e] * dist * dist / cos_l
             w = power_heuristic(k_count, pdf, gather_rays, cos_r / np.pi)
             f = cos_r / (np.pi * pdf) * w / k_count
+            dirs[i, 0], dirs[i, 1], dirs[i, 2] = dx, dy, dz
             for a in range(3):
-                dirs[i, a] = d[a]
                 value[i, a] = f * emission[s, a]
             tmax[i] = dist * (1.0 - 1e-4)
     return origins, dirs, tmax, value
