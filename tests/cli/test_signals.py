@@ -105,15 +105,24 @@ def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
 
 
-def test_a_signal_while_the_interpreter_winds_down_ends_it_at_once():
-    """After the work (the output complete), a Ctrl-C during the interpreter's teardown,
-    which can take seconds, ends the process at once with 130 and no traceback."""
-    script = ("import os, signal, sys, time\n"
+def test_the_process_ends_after_the_work_and_a_signal_while_winding_down_ends_it_at_once():
+    """main() of the command line runs the exit handlers and ends the process (no slow
+    teardown); a Ctrl-C during those handlers ends it at once with 130, no traceback."""
+    script = ("import atexit, os, signal, sys, time\n"
               "from patchlight.cli.main import main\n"
+              "mode = sys.argv[1]\n"
+              "def slow():\n"
+              "    if mode == 'signal':\n"
+              "        os.kill(os.getpid(), signal.SIGINT)\n"
+              "    time.sleep(5)\n"
+              "    print('handler finished', flush=True)\n"
+              "atexit.register(slow)\n"
               "sys.argv = ['patchlight', '--help']\n"
-              "status = main()\n"
-              "os.kill(os.getpid(), signal.SIGINT)\n"
-              "time.sleep(5)\n"
-              "print('still running')\n")
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
-    assert run.returncode == 130 and "still running" not in run.stdout and "Traceback" not in run.stderr
+              "main()\n"
+              "print('main returned')\n")
+    quiet = subprocess.run([sys.executable, "-c", script, "quiet"], capture_output=True, text=True, timeout=60)
+    assert quiet.returncode == 0 and "handler finished" in quiet.stdout and "main returned" not in quiet.stdout
+    started = time.monotonic()
+    stopped = subprocess.run([sys.executable, "-c", script, "signal"], capture_output=True, text=True, timeout=60)
+    assert stopped.returncode == 130 and "handler finished" not in stopped.stdout
+    assert "Traceback" not in stopped.stderr and time.monotonic() - started < 4.5

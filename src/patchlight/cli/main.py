@@ -14,8 +14,15 @@ import warnings
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run `patchlight` with argv (None: the process's own command line, and then a signal
-    after the work, while the interpreter winds down, ends the process at once)."""
+    """Run `patchlight` with argv. None: the process's own command line; then main ends the
+    process (`_end_process`)."""
+    status = _main(argv)
+    if argv is None:
+        _end_process(status)
+    return status
+
+
+def _main(argv: list[str] | None) -> int:
     with _StopSignals(winding_down=argv is None) as signals:
         try:
             status = _run(argv)
@@ -27,6 +34,18 @@ def main(argv: list[str] | None = None) -> int:
                 raise
             return _stopped(number)
         return status if signals.received is None else _stopped(signals.received)
+
+
+def _end_process(status: int) -> None:
+    """Run the exit handlers (Ray's shutdown, thread pools' joins), flush, and end without the
+    interpreter's teardown: it walks every object the JIT made (seconds on a loaded machine)
+    after Python has put SIGINT back to its default, so a Ctrl-C then killed the process."""
+    import atexit
+
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
 
 
 def _stopped(number: int) -> int:
@@ -66,7 +85,7 @@ class _StopSignals:
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
     (SIGALRM). Only in the main thread (main() called from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
-    main), `_exit_now`: the work is done, and the interpreter's teardown can take seconds."""
+    main), `_exit_now`: the work is done; the exit handlers may take a while."""
 
     def __init__(self, winding_down: bool = False):
         self.winding_down = winding_down
@@ -110,7 +129,7 @@ class _StopSignals:
 
 
 def _exit_now(number, frame) -> None:
-    """A signal while the interpreter winds down: the output is complete; end at once."""
+    """A signal while the process winds down: the output is complete; end at once."""
     try:
         sys.stdout.flush()
     finally:
