@@ -418,7 +418,10 @@ function bindControls(viewer, redraw) {
     showInspection(viewer);
   });
   $('exposure-auto').onclick = change(() => { st.exposure = viewer.autoExposure(); inspected(); });
-  $('split').onchange = change(() => { viewer.setSplit($('split').value); });
+  $('split').onchange = change(() => {
+    viewer.setSplit($('split').value);
+    $('split-line').hidden = !viewer.state.split;
+  });
   $('frame-all').onclick = () => { viewer.rig.frameAll(); redraw(); };
   $('camera-reset').onclick = () => { viewer.rig.reset(); redraw(); };
   $('pass').max = String(Math.max(1, inspector.passes));
@@ -638,7 +641,9 @@ async function main() {
   };
   const triangles = viewer.manifest.arrays.indices.shape[0];
   viewer.onFrame = (ms) => {
-    $('stats').textContent = `${viewer.state.model}  ${ms.toFixed(1)} ms/frame  ${triangles} triangles`;
+    const split = viewer.state.split === 'bake' ? `bake ${viewer.manifest.compare.name}` : viewer.state.split;
+    $('stats').textContent = `${viewer.state.model}${split ? ` | ${split}` : ''}  ${ms.toFixed(1)} ms/frame  `
+      + `${triangles} triangles`;
   };
   bindControls(viewer, redraw);
   bindInspection(viewer, canvas, redraw);
