@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1] / "src" / "patchlight"
 # Bottom first. A package may import only from layers below its own.
 LAYERS = (
     ("errors", "shaders"),  # shaders: GLSL files only
-    ("config", "progress", "texels", "limits"),  # texels: the format of a bake's texels.npz
+    ("config", "progress", "limits"),
     ("imaging",),
     ("shading", "outputs"),  # outputs: folders written as one set, the writers' lock
     ("scene",),

@@ -28,7 +28,6 @@ from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
-from .texels import Texels
 
 @dataclass
 class BakeResult:
@@ -52,13 +51,6 @@ class BakeResult:
         """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is."""
         inside = self.status == adaptive.INSIDE
         return [fill_lightmap(self.patches, I, inside, self.walled) for I in self.pass_incident]
-
-    def texels(self) -> Texels:
-        """The per-texel arrays of texels.npz."""
-        p = self.patches
-        return Texels(np.stack(self.pass_images()).astype(np.float16), p.to_image(self.status),
-                      p.to_image(p.chart, fill=-1), p.to_image(p.rho), p.to_image(p.emission),
-                      p.to_image(self.solution.excident.astype(np.float32)))
 
     @property
     def valid(self) -> np.ndarray:

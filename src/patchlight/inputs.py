@@ -56,7 +56,7 @@ class Input:
         from .render.target import Target
         from .shading.hemisphere_radiosity import OFFSET_MODES
         from .solved import load_solved
-        from .texels import read_bake_texels
+        from .bakedir import read_texels
 
         if offset_mode is not None and offset_mode not in OFFSET_MODES:
             raise PatchlightError(f"--offset-mode {offset_mode}: choose from {', '.join(OFFSET_MODES)}")
@@ -71,7 +71,7 @@ class Input:
             solved = load_solved(shown)
             target = Target.from_scene(solved.scene, solved.lightmap, Path(shown).resolve())
             target.directional = bakedir.read_directional(target.bake_dir)
-            target.texels = read_bake_texels(shown)
+            target.texels = read_texels(shown)
             if target.texels is not None and target.texels.status.shape != solved.lightmap.shape[:2]:
                 raise PatchlightError(f"{shown}: texels.npz and lightmap.exr differ in size (a mixture of two bakes)")
             return target, ground_map

@@ -135,10 +135,9 @@ class PatchViews:
         from .radiosity.emitters import find_emitters, samples_per_texel, two_sided_triangles
         from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
         from .rays.tracer import Tracer
-        from .texels import read_bake_texels
 
         bake_dir = Path(bake_dir)
-        self.texels = read_bake_texels(bake_dir)
+        self.texels = bakedir.read_texels(bake_dir)
         if self.texels is None:
             raise PatchlightError(f"{bake_dir}: no texels.npz (bake it again to view from a patch)")
         summary = bakedir.read_summary(bake_dir)

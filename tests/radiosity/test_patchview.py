@@ -23,7 +23,7 @@ from patchlight.radiosity import adaptive
 from patchlight.inputs import open_input
 from patchlight.render import Renderer, target_settings
 from patchlight.scene import load_scene
-from patchlight.texels import STATUS_NAMES, read_bake_texels
+from patchlight.bakedir import STATUS_NAMES, read_texels
 
 HEMICUBE = 16
 
@@ -40,7 +40,7 @@ def baked(tmp_path_factory):
 
 def test_texels_file_holds_every_pass_and_the_bake_arrays(baked):
     result, out = baked
-    texels = read_bake_texels(out)
+    texels = read_texels(out)
     p = result.patches
     assert texels.passes.shape == (result.stats["passes"], 32, 32, 3)
     inside = result.status == adaptive.INSIDE
@@ -144,14 +144,14 @@ def test_a_damaged_texels_file_or_bake_json_is_one_line(baked, tmp_path):
     _, out = baked
     broken = tmp_path / "broken"
     shutil.copytree(out, broken)
-    texels = read_bake_texels(out)
+    texels = read_texels(out)
     texels.excident[0, 0, 0] = np.nan
     (broken / "texels.npz").write_bytes(texels.to_bytes())
     with pytest.raises(PatchlightError, match="texels.npz: values that are not finite"):
-        read_bake_texels(broken)
+        read_texels(broken)
     (broken / "texels.npz").write_bytes(b"not a zip")
     with pytest.raises(PatchlightError, match="texels.npz: not a readable texels file"):
-        read_bake_texels(broken)
+        read_texels(broken)
     shutil.copy(out / "texels.npz", broken / "texels.npz")
     (broken / "bake.json").write_text('{"settings": {}}')
     with pytest.raises(PatchlightError, match="bake.json: no readable gather settings"):

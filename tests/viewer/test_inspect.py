@@ -31,7 +31,7 @@ from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
 from patchlight.scene import load_scene
 from patchlight.solved import load_solved
-from patchlight.texels import read_bake_texels
+from patchlight.bakedir import read_texels
 from patchlight.viewer.app import make_server
 
 pytestmark = pytest.mark.skipif(three_missing() is not None, reason=str(three_missing()))
@@ -186,7 +186,7 @@ def texel_under(target, probe) -> tuple[int, int]:
 
 def test_the_probe_shows_the_bake_arrays_of_the_texel_under_the_pointer(run):
     log, _, target = run
-    texels = read_bake_texels(target.bake_dir)
+    texels = read_texels(target.bake_dir)
     lightmap = read_exr(target.bake_dir / "lightmap.exr")
     names = ("uncovered", "gathered", "interpolated", "inside geometry")
     for k in range(len(PROBES)):

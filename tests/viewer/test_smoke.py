@@ -12,7 +12,7 @@ from render_scenes import showcase_target
 
 from patchlight.render import target_settings
 from patchlight.shading import FALLOFFS, LIGHT_KINDS, MODELS
-from patchlight.texels import Texels
+from patchlight.bakedir import Texels
 from patchlight.viewer.app import make_server
 
 

@@ -14,7 +14,7 @@ from ..errors import PatchlightError
 from ..scene.model import Scene
 from ..shading.directional import DirectionalLightmap
 from ..shading.surface import SurfaceArrays
-from ..texels import Texels
+from ..bakedir import Texels
 
 
 @dataclass

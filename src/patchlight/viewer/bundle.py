@@ -39,7 +39,7 @@ from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
 from ..shading.models import ShadingSettings
-from ..texels import STATUS_NAMES, Texels
+from ..bakedir import STATUS_NAMES, Texels
 from ..volumes.viewer import volume_bundle
 
 

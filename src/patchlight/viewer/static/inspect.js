@@ -1,4 +1,4 @@
-// Inspecting a bake (its texels.npz, patchlight/texels.py, in the scene bundle): the passes'
+// Inspecting a bake (its texels.npz, patchlight/bakedir.py, in the scene bundle): the passes'
 // lightmaps, the debug overlays (incident light, texel status, charts), the marks laid over
 // the surfaces (texel checker, chart outlines), the value probe of one texel, the 2-D atlas
 // view and the legend of every debug colour.
