@@ -168,10 +168,10 @@ class PatchViews:
         seen, directions, shares = g.look(row)
         radiance = np.zeros((len(seen), 3), np.float32)
         hit = seen >= 0
-        y, x = p.texel_y[seen[hit]], p.texel_x[seen[hit]]
-        radiance[hit] = self.texels.excident[y, x]
+        seen_texels = p.texel_y[seen[hit]], p.texel_x[seen[hit]]
+        radiance[hit] = self.texels.excident[seen_texels]
         next_event = np.zeros_like(radiance)
-        next_event[hit] = self.texels.emission[y, x] * (1.0 - shares[hit, None])
+        next_event[hit] = self.texels.emission[seen_texels] * (1.0 - shares[hit, None])
         sky = seen == SKY
         if g.sky is not None and sky.any():
             radiance[sky] = g.sky.radiance(directions[sky])

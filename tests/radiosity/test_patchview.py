@@ -4,6 +4,7 @@ is the picture five pinhole cameras at the patch take (rendered by the CPU rende
 `render --patch` writes it or says in one line what is wrong."""
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
@@ -62,6 +63,7 @@ def test_the_view_sums_to_the_patch_gathered_light(baked):
     p = result.patches
     for row in computed[:: max(1, len(computed) // 25)]:
         view = views.at(int(p.texel_x[row]), int(p.texel_y[row]))
+        assert view.texel == (p.texel_x[row], p.texel_y[row]) and json.dumps(view.to_json())
         np.testing.assert_allclose(view.gathered, result.solution.gathered[row], rtol=2e-3, atol=1e-5)
 
 
