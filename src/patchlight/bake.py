@@ -19,7 +19,7 @@ from .limits import available_memory
 from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import texel_direct_light
-from .radiosity.directional import add_direct, gather_directions, split_maps
+from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
 from .radiosity.memory import check_bake_memory, form_factor_budget
@@ -79,8 +79,16 @@ def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walle
                        advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
-    sums = gather_directions(gatherer, solution.excident, rows, advance)
+    from .atlas.raster import texel_points
+
+    sampled = gatherer.emitters is not None and gatherer.nee_samples > 0
+    seen = solution.excident - patches.emission if sampled else solution.excident
+    sums = gather_directions(gatherer, seen, rows, advance)
     add_direct(sums, patches, scene.baked_lights, per_light)
+    if sampled:
+        side = math.isqrt(gatherer.nee_samples)
+        add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, texel_points(scene, patches, side),
+                     gatherer.offset, gatherer.tracer, gatherer.seed)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
 

@@ -142,3 +142,29 @@ def test_bake_then_render_the_directional_model(tmp_path):
         bumped = pictures["lightmap-directional", 1]
         assert np.abs(bumped[lit] / plain[lit] - 1).mean() > 0.03  # the bumps show under baked light
         assert np.array_equal(pictures["lightmap", 1], plain)  # the plain lightmap ignores them
+
+
+def test_an_emissive_panel_is_where_the_light_comes_from():
+    """No lamp, no sky: a 0.5 m emissive panel 1 m above one end of the floor. Every floor
+    texel's dominant direction points into the panel's cone, and its L1 light is brighter
+    for a normal turned towards the panel than for one turned away."""
+    glow = Material(name="glow", base_color=np.array([0.0, 0.0, 0.0, 1], np.float32),
+                    emissive=np.array([4.0, 4.0, 4.0], np.float32))
+    panel = _quad([[0.25, 1, -0.25], [0.75, 1, -0.25], [0.75, 1, 0.25], [0.25, 1, 0.25]], [0, -1, 0])
+    floor = _quad([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], [0, 1, 0])
+    scene = scene_from_parts([floor, panel], [GREY, glow], [0, 1], [], None,
+                             [(0.05, 0.05, 0.6, 0.95), (0.7, 0.05, 0.95, 0.3)])
+    for mode in ("dominant", "sh"):
+        result = bake(scene, BakeSettings(resolution=32, rays=256, directional=mode))
+        on_floor = result.patches.triangle < 2
+        texel = result.patches.texel_y[on_floor], result.patches.texel_x[on_floor]
+        texels = result.directional.maps[:, texel[0], texel[1]]
+        to_panel = np.array([0.5, 1.0, 0.0]) - result.patches.position[on_floor]
+        distance = np.linalg.norm(to_panel, axis=1)
+        to_panel /= distance[:, None]
+        L, share = dominant_direction(mode, texels)
+        cone = np.degrees(np.arctan(0.36 / distance)) + 3  # the panel's half-diagonal seen from the texel
+        assert (np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", L, to_panel), -1, 1))) < cone).all()
+        if mode == "sh":
+            towards, away = sh_light(texels, to_panel), sh_light(texels, -to_panel)
+            assert (towards[:, 0] > 2 * np.maximum(away[:, 0], 0)).all()

@@ -80,3 +80,11 @@ def test_files_round_trip(tmp_path):
         loaded = read_directional(folder)
         assert loaded.mode == mode and np.array_equal(loaded.maps, maps)
     assert read_directional(tmp_path) is None
+
+
+def test_where_l1_saw_no_light_the_plain_lightmap_stays():
+    texels = np.zeros((4, 3, 3))
+    baked = np.full((3, 3), 0.7)
+    N = _unit([[0.3, 1, 0], [1, 0, 0], [0, 1, 0]])
+    N0 = np.tile([0.0, 1.0, 0.0], (3, 1))
+    assert np.array_equal(directional_light("sh", texels, baked, N, N0), baked)

@@ -2,9 +2,11 @@
 model are `patchlight.shading.directional`'s).
 
 Once the passes have converged, every valid texel looks again through the gather's own rays
-(same pattern, same turn per patch) at the solved excident light B, the sky and the emitters
-(their B holds their emission), and each light's direct share arrives from its direction
-(the sun's, or towards the lamp). Each piece of light is projected:
+(same pattern, same turn per patch) at the solved excident light B and the sky, and each
+light's direct share arrives from its direction (the sun's, or towards the lamp). Emitters:
+when the direct stage samples them (next-event estimation), their samples give their light
+and its directions, at full weight, and the rays see only B - E; otherwise the rays see their
+emission in B. Each piece of light is projected:
 
 - L1 SH of radiance: a ray of weight w (the pattern's weights sum to 1 and stand for
   cos dw / pi) carries solid angle dw = pi w / cos, so c += L dw (Y00, Y1 w_dir). The 1/cos
@@ -30,6 +32,7 @@ from . import _kernels
 from .gather import Gatherer
 
 MIN_COS = 1e-4  # grazing rays: cosines below this count as this, bounding their solid angle
+EMITTER_CHUNK = 4096  # texels whose emitter samples are traced at a time
 
 
 class DirectionalSums:
@@ -114,6 +117,29 @@ def add_direct(sums: DirectionalSums, patches: Patches, lights, per_light: list[
         I = np.asarray(incident, np.float64)[lit, None]
         sums.add_sh(lit, np.pi * I / cos[:, None, None], to_light[lit, None])
         sums.add_dominant(lit, I, to_light[lit, None])
+
+
+def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.ndarray, points: np.ndarray,
+                 lift: np.ndarray, tracer, seed: int) -> None:
+    """Add the emitters' direct light from the directions it arrives along: the direct stage's
+    next-event samples (points (N, K, 3) per texel), each at full weight (no MIS share: the
+    gather's rays then count no emission, `gather_directions` with B - E)."""
+    normal = np.asarray(patches.normal, np.float64)
+    rows = np.arange(len(patches), dtype=np.int64)
+    k = points.shape[1]
+    for start in range(0, len(rows), EMITTER_CHUNK):
+        part = rows[start:start + EMITTER_CHUNK]
+        e = emitters
+        origins, dirs, tmax, value = _kernels.emitter_rays(
+            points[part], normal, np.asarray(lift, np.float64), part, e.cdf, e.triangles, e.corners, e.normals,
+            e.two_sided, e.area, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
+        live = np.flatnonzero(tmax > 0)
+        value[live[tracer.occluded(origins[live], dirs[live], tmax[live])]] = 0.0
+        dirs = dirs.astype(np.float64).reshape(len(part), k, 3)
+        value = value.astype(np.float64).reshape(len(part), k, 3)
+        cos = np.maximum(np.einsum("rka,ra->rk", dirs, normal[part]), MIN_COS)
+        sums.add_sh(part, np.pi * value / cos[..., None], dirs)
+        sums.add_dominant(part, value, dirs)
 
 
 def split_maps(mode: str, images: np.ndarray) -> DirectionalLightmap:

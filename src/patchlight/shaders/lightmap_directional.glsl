@@ -22,7 +22,9 @@ vec3 directional_light(vec2 uv1, vec3 baked, vec3 N, vec3 N0) {
     vec3 cx = texture(directional_map1, uv1).rgb;
     vec3 cy = texture(directional_map2, uv1).rgb;
     vec3 cz = texture(directional_map3, uv1).rgb;
-    return baked * max(sh_light(c0, cx, cy, cz, N), 0.0) / max(sh_light(c0, cx, cy, cz, N0), DIRECTIONAL_FLOOR);
+    vec3 at_n0 = sh_light(c0, cx, cy, cz, N0);
+    vec3 ratio = max(sh_light(c0, cx, cy, cz, N), 0.0) / max(at_n0, DIRECTIONAL_FLOOR);
+    return baked * mix(vec3(1.0), ratio, greaterThan(at_n0, vec3(DIRECTIONAL_FLOOR)));  // no L1 light: I as it is
 #else
     vec3 d = texture(directional_map0, uv1).rgb;
     return baked * (0.5 + 0.5 * dot(N, d)) / max(0.5 + 0.5 * dot(N0, d), DIRECTIONAL_FLOOR);

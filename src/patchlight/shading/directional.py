@@ -14,7 +14,8 @@ Two modes (`bake --directional`):
   directional mode. Stored as RGB = x, y, z.
 
 The model keeps the plain lightmap exactly where the normal is the surface's own normal N0 and
-redistributes it elsewhere: sh: I x max(sh(n), 0) / sh(N0); dominant: I x (0.5 + 0.5 n.d) /
+redistributes it elsewhere: sh: I x max(sh(n), 0) / sh(N0) (I itself where sh(N0) is 0);
+dominant: I x (0.5 + 0.5 n.d) /
 (0.5 + 0.5 N0.d) (the half-Lambert rebalance). Under a single sun of irradiance Es at angle
 theta, L1 gives sh(n) = Es (1/4 + cos(theta) / 2) / pi where the exact light is Es
 max(cos(theta), 0) / pi: L1 cannot do better than this projection, whose error is at most
@@ -66,8 +67,9 @@ def sh_light(texels: np.ndarray, n: np.ndarray) -> np.ndarray:
 def directional_light(mode: str, texels: np.ndarray, baked: np.ndarray, N: np.ndarray, N0: np.ndarray) -> np.ndarray:
     """lightmap_directional.glsl: the lightmap's I (N, 3) redistributed for the (normal-mapped)
     normal N, equal to I at the surface normal N0 (both (N, 3) unit)."""
-    if mode == "sh":
-        return baked * np.maximum(sh_light(texels, N), 0.0) / np.maximum(sh_light(texels, N0), FLOOR)
+    if mode == "sh":  # where L1 saw no light (I from emitters its rays missed), I as it is
+        at_n0 = sh_light(texels, N0)
+        return baked * np.where(at_n0 > FLOOR, np.maximum(sh_light(texels, N), 0.0) / np.maximum(at_n0, FLOOR), 1.0)
     d = texels[0]
     rebalance = (0.5 + 0.5 * np.einsum("ij,ij->i", N, d)) / np.maximum(0.5 + 0.5 * np.einsum("ij,ij->i", N0, d), FLOOR)
     return baked * rebalance[:, None]
