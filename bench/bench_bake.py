@@ -2,15 +2,19 @@
 
 Prints, per scene: patches, computed patches, rays traced, rays per second, seconds per
 stage, and the ratio of the whole bake's time to the time embreex alone needs to trace the
-same rays: every ray the bake cast (closest-hit and occlusion) is recorded as it is cast and
-re-traced afterwards with bare `EmbreeScene.run` calls on a thread per core. The JIT is
+same rays: the rays the bake cast (closest-hit and occlusion) are recorded as they are cast
+and re-traced afterwards with bare `EmbreeScene.run` calls on a thread per core. The JIT is
 warmed up first, untimed. The recording costs memory (about 50 bytes a ray) and, as its
 copies are made while the bake runs, some of the bake's time: the ratio errs on the high side.
-Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N] [--gather G] [--scenes ...]`.
+Large lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so
+the copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
+scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation.
+Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N ...] [--gather G] [--scenes ...]`.
 """
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -24,23 +28,31 @@ from patchlight.scene import load_scene
 
 
 class RecordedRays:
-    """Keeps a copy of every ray the tracer casts while active: (origins, directions, tmax
-    or None for closest hit) per call."""
+    """Keeps a copy of the rays of one tracer call in `sample` while active: (origins,
+    directions, tmax or None for closest hit) per call; `cast` counts every ray by kind."""
 
-    def __init__(self):
+    def __init__(self, sample: int = 1):
         self.batches = []
+        self.cast = {False: 0, True: 0}  # occlusion? -> rays
+        self.sample = sample
+        self._calls = itertools.count()
         self._originals = (Tracer.intersect_chunk, Tracer.occluded_chunk)
+
+    def _record(self, origins, directions, far):
+        self.cast[far is not None] += len(origins)
+        if next(self._calls) % self.sample == 0:
+            self.batches.append((np.array(origins, np.float32), np.array(directions, np.float32), far))
 
     def __enter__(self):
         intersect_chunk, occluded_chunk = self._originals
-        record = self.batches.append
+        record = self._record
 
         def recorded_intersect_chunk(tracer, origins, directions):
-            record((np.array(origins, np.float32), np.array(directions, np.float32), None))
+            record(origins, directions, None)
             return intersect_chunk(tracer, origins, directions)
 
         def recorded_occluded_chunk(tracer, origins, directions, tmax):
-            record((np.array(origins, np.float32), np.array(directions, np.float32), np.array(tmax, np.float32)))
+            record(origins, directions, np.array(tmax, np.float32))
             return occluded_chunk(tracer, origins, directions, tmax)
 
         Tracer.intersect_chunk, Tracer.occluded_chunk = recorded_intersect_chunk, recorded_occluded_chunk
@@ -49,7 +61,7 @@ class RecordedRays:
     def __exit__(self, *exc):
         Tracer.intersect_chunk, Tracer.occluded_chunk = self._originals
 
-    def count(self, occlusion: bool) -> int:
+    def recorded(self, occlusion: bool) -> int:
         return sum(len(o) for o, _, far in self.batches if (far is not None) == occlusion)
 
 
@@ -61,7 +73,8 @@ def trace(es, origins, directions, far):
 
 
 def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
-    """Seconds bare embreex needs for the recorded closest-hit and occlusion rays."""
+    """Seconds bare embreex needs for all the closest-hit and occlusion rays the bake cast
+    (the recorded ones' time scaled by cast over recorded)."""
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
@@ -76,20 +89,21 @@ def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
         start = time.perf_counter()
         list(pool.map(lambda part: trace(es, *part), parts))
         seconds[far is not None] += time.perf_counter() - start
-    return seconds[False], seconds[True]
+    return tuple(seconds[k] * rays.cast[k] / max(rays.recorded(k), 1) for k in (False, True))
 
 
-def run(name: str, settings: BakeSettings) -> None:
+def run(name: str, settings: BakeSettings, sample: int) -> None:
     scene = load_scene(name)
     bake(scene, BakeSettings(resolution=128, passes=2))  # JIT warm-up, not timed
-    with RecordedRays() as rays:
+    with RecordedRays(sample) as rays:
         start = time.perf_counter()
         result = bake(scene, settings)
         total = time.perf_counter() - start
     s = result.stats
     closest, occlusion = embree_alone(result.scene, rays)
-    n_closest, n_occlusion = rays.count(False), rays.count(True)
-    assert n_closest + n_occlusion == s["rays_traced"], "every ray the bake counted was recorded"
+    n_closest, n_occlusion = rays.cast[False], rays.cast[True]
+    assert n_closest + n_occlusion == s["rays_traced"], "every ray the bake counted was seen"
+    busy = sum(s["cpu_utilisation_per_stage"][k] * t for k, t in s["seconds_per_stage"].items()) / total
     print(f"\n== {name} {s['resolution'][0]}x{s['resolution'][1]}, {settings.gather} "
           f"({s['rays_per_patch']} rays/patch)")
     print(f"patches {s['patches']}: computed {s['computed_patches']}, interpolated {s['interpolated_patches']}, "
@@ -99,21 +113,25 @@ def run(name: str, settings: BakeSettings) -> None:
           f"({s['form_factor_matrix']['bytes'] / 2**20:.0f} MiB), {s['passes']} passes")
     for stage, seconds in s["seconds_per_stage"].items():
         print(f"  {stage:<14} {seconds:7.3f} s   CPU {100 * s['cpu_utilisation_per_stage'][stage]:3.0f} % of the cores")
-    print(f"  {'total':<14} {total:7.3f} s   texels/s {s['patches'] / total:,.0f}")
+    print(f"  {'total':<14} {total:7.3f} s   CPU {100 * busy:3.0f} % of the cores   texels/s {s['patches'] / total:,.0f}")
     print(f"embreex alone: {n_closest / 1e6:.2f} M closest-hit rays {closest:.3f} s "
           f"({n_closest / max(closest, 1e-9) / 1e6:.2f} Mrays/s), {n_occlusion / 1e6:.2f} M occlusion rays "
-          f"{occlusion:.3f} s ({n_occlusion / max(occlusion, 1e-9) / 1e6:.2f} Mrays/s); "
+          f"{occlusion:.3f} s ({n_occlusion / max(occlusion, 1e-9) / 1e6:.2f} Mrays/s)"
+          f"{f', from 1 call in {sample}' if sample > 1 else ''}; "
           f"bake / embreex = {total / (closest + occlusion):.2f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--resolution", type=int, default=512)
+    parser.add_argument("--resolution", type=int, nargs="+", default=[512])
+    parser.add_argument("--sample", type=int, help="record one tracer call in K (default: (N / 512)^2)")
     parser.add_argument("--gather", default="stratified", choices=("stratified", "hemicube"))
     parser.add_argument("--scenes", nargs="+", default=["room", "cornell"])
     args = parser.parse_args()
-    for name in args.scenes:
-        run(name, BakeSettings(resolution=args.resolution, gather=args.gather))
+    for resolution in args.resolution:
+        for name in args.scenes:
+            sample = args.sample or max(1, (resolution // 512) ** 2)
+            run(name, BakeSettings(resolution=resolution, gather=args.gather), sample)
 
 
 if __name__ == "__main__":

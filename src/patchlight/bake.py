@@ -22,7 +22,7 @@ from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
-from .radiosity.memory import check_bake_memory, form_factor_budget
+from .radiosity.memory import check_bake_memory, estimate_peak_bytes, form_factor_budget, peak_resident_bytes
 from .radiosity.sampling import gather_adaptive, walled_inside
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
@@ -199,6 +199,8 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
         "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
+        "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget, settings.texel_samples),
+                   "peak_resident_bytes": peak_resident_bytes()},
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
         "change_to_come": to_come if math.isfinite(to_come) else None,  # None: not known yet

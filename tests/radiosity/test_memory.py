@@ -46,7 +46,8 @@ def test_the_estimate_refuses_what_would_not_fit_and_names_a_resolution_that_wou
     from patchlight.errors import PatchlightError
     from patchlight.radiosity.memory import HEADROOM, check_bake_memory, estimate_bake_bytes, form_factor_budget
 
-    assert estimate_bake_bytes(2048, 1024) == 2 * estimate_bake_bytes(1024, 1024)
+    base = estimate_bake_bytes(0, 0)
+    assert estimate_bake_bytes(2048, 1024) - base == 2 * (estimate_bake_bytes(1024, 1024) - base) > 0
     assert estimate_bake_bytes(1024, 1024, texel_samples=4) > estimate_bake_bytes(1024, 1024)
     check_bake_memory(64, 64, available=10**12)
     with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about .* lower --resolution \(about 1"):
@@ -66,3 +67,15 @@ def test_a_resolution_too_large_for_memory_is_refused_before_any_work(monkeypatc
     monkeypatch.setattr(uvs, "ensure_lightmap_uvs", lambda *a, **k: pytest.fail("made UVs before refusing"))
     with pytest.raises(PatchlightError, match="lightmap 8192x8192"):
         bake(load_scene("cornell"), BakeSettings(resolution=8192))
+
+
+def test_the_peak_estimate_counts_f_up_to_its_budget_and_bake_json_holds_it_beside_the_peak():
+    from patchlight.radiosity.memory import FORM_FACTOR_BYTES_PER_TEXEL, estimate_bake_bytes, estimate_peak_bytes
+
+    rest = estimate_bake_bytes(1024, 1024)
+    assert estimate_peak_bytes(1024, 1024, budget=1 << 40) == rest + FORM_FACTOR_BYTES_PER_TEXEL * 1024 * 1024
+    assert estimate_peak_bytes(1024, 1024, budget=1000) == rest + 1000
+    stats = bake(load_scene("cornell"), BakeSettings(resolution=32)).stats
+    memory = stats["memory"]
+    assert memory["estimated_peak_bytes"] == estimate_peak_bytes(32, 32, stats["form_factor_matrix"]["budget"])
+    assert 50 << 20 < memory["peak_resident_bytes"] < 8 << 30  # the interpreter's own, and more

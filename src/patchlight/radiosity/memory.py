@@ -1,13 +1,16 @@
 """What a bake needs in memory, and what the machine has.
 
-A W x H lightmap costs about BYTES_PER_TEXEL per texel of the image beside the form-factor
-matrix F (patch arrays, the points spread over each texel for direct light, light vectors,
-the sampler's state, images), whether or not texels are covered: measured as peak resident
-memory over the interpreter's own, F dropped (room 1024: 607; room 512: 542; cornell 512:
-687 bytes per texel at 2 x 2 texel samples; room 512 at 4 x 4: 1433, so about 74 bytes per
-further sample). F gets what is left, up to --max-memory, and is dropped for re-gathering
-once it would not fit (solve.FormFactors). The whole is checked before any work, so a
-lightmap too large is refused with the estimate instead of being killed by the kernel halfway.
+A bake's peak resident memory is, measured on the room at 2 x 2 texel samples:
+BASE_BYTES (the interpreter, NumPy, numba's kernels, Embree) plus BYTES_PER_TEXEL per texel
+of the W x H image (patch arrays, the points spread over each texel for direct light, light
+vectors, the sampler's state, images), covered or not, plus the form-factor matrix F
+(FORM_FACTOR_BYTES_PER_TEXEL: 568 at 512, 552 at 1024, 532 at 2048). Peak minus F was 681
+and 471 bytes per texel at 1024 and 2048, i.e. about 280 MiB plus 400 a texel; each further
+direct-light sample adds about 74 (room 512 at 4 x 4). F gets what is left, up to
+--max-memory, and is dropped for re-gathering once it would not fit (solve.FormFactors).
+The rest is checked before any work, so a lightmap too large is refused with the estimate
+instead of being killed by the kernel halfway; the whole estimate (estimate_peak_bytes) goes
+into bake.json beside the measured peak (bench/bench_memory.py compares them).
 """
 from __future__ import annotations
 
@@ -16,8 +19,10 @@ import math
 from ..errors import PatchlightError
 from ..limits import available_memory
 
-BYTES_PER_TEXEL = 720          # at 2 x 2 texel samples: measured 542..687 (module docstring)
+BASE_BYTES = 280 << 20         # the interpreter and its libraries
+BYTES_PER_TEXEL = 400          # at 2 x 2 texel samples, F aside (module docstring)
 BYTES_PER_TEXEL_SAMPLE = 80    # each further direct-light point per texel: measured about 74
+FORM_FACTOR_BYTES_PER_TEXEL = 545  # F of the room per lightmap texel (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
 
@@ -25,7 +30,21 @@ MIN_SIDE = 16
 def estimate_bake_bytes(width: int, height: int, texel_samples: int = 2) -> int:
     """Peak bytes of baking a width x height lightmap, F aside (it adapts to what is left)."""
     per_texel = BYTES_PER_TEXEL + BYTES_PER_TEXEL_SAMPLE * max(0, texel_samples ** 2 - 4)
-    return int(width) * int(height) * per_texel
+    return BASE_BYTES + int(width) * int(height) * per_texel
+
+
+def estimate_peak_bytes(width: int, height: int, budget: int, texel_samples: int = 2) -> int:
+    """Peak bytes of the whole bake: the rest (estimate_bake_bytes) plus F at the room's
+    measured bytes per texel, at most its budget (beyond it F is dropped and re-gathered)."""
+    form_factors = min(FORM_FACTOR_BYTES_PER_TEXEL * int(width) * int(height), int(budget))
+    return estimate_bake_bytes(width, height, texel_samples) + form_factors
+
+
+def peak_resident_bytes() -> int:
+    """The most resident memory this process has held so far (Linux: ru_maxrss in KiB)."""
+    import resource
+
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
 def check_bake_memory(width: int, height: int, texel_samples: int = 2, available: int | None = None) -> None:

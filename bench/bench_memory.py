@@ -1,0 +1,47 @@
+"""The memory estimate against the measured peak: bakes a scene through the CLI, one child
+process per resolution, and prints bake.json's estimated peak beside the child's peak
+resident memory (its whole life, writing the files included), their ratio, the seconds and F.
+Run by hand, one resolution at a time on a shared machine:
+    .venv/bin/python bench/bench_memory.py [--scene room] [--resolution 1024 2048 ...]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def measure(scene: str, resolution: int, out: Path) -> None:
+    start = time.perf_counter()
+    child = subprocess.Popen([sys.executable, "-m", "patchlight.cli.main", "bake", scene, "--resolution",
+                              str(resolution), "-o", str(out), "--quiet"])
+    _, status, usage = os.wait4(child.pid, 0)
+    seconds = time.perf_counter() - start
+    if os.waitstatus_to_exitcode(status) != 0:
+        print(f"{scene} {resolution}: the bake failed (exit status {os.waitstatus_to_exitcode(status)})")
+        return
+    summary = json.loads((out / "bake.json").read_text())
+    estimate, peak = summary["memory"]["estimated_peak_bytes"], usage.ru_maxrss * 1024
+    f = summary["form_factor_matrix"]
+    print(f"{scene} {resolution}x{resolution}: estimate {estimate / 2**30:.2f} GiB, peak {peak / 2**30:.2f} GiB, "
+          f"estimate / peak {estimate / peak:.2f}; {seconds:.0f} s; F {f['bytes'] / 2**30:.2f} GiB "
+          f"{'kept' if f['kept'] else 'dropped'}, {summary['computed_patches']} of {summary['patches']} gathered")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="room")
+    parser.add_argument("--resolution", type=int, nargs="+", default=[1024, 2048])
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="patchlight-memory") as temp:
+        for resolution in args.resolution:
+            measure(args.scene, resolution, Path(temp) / str(resolution))
+
+
+if __name__ == "__main__":
+    main()
