@@ -274,8 +274,12 @@ class Document:
         if reason is not None:
             raise self.fail(f"{what}: uri {uri[:60]!r} {reason}; only files inside the glTF's folder "
                             f"are read (--allow-outside-files reads it)")
-        if not target.is_file():
-            raise self.fail(f"{what}: file {uri!r} not found next to the glTF")
+        try:
+            found = target.is_file()
+        except OSError:  # a name too long for the file system
+            found = False
+        if not found:
+            raise self.fail(f"{what}: file {uri[:60]!r} not found next to the glTF")
         return read_bytes(target)
 
     def view_bytes(self, index) -> memoryview:
