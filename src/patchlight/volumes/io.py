@@ -41,7 +41,6 @@ interpolation of the filled values, and in between the two blend continuously.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
