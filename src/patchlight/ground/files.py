@@ -24,7 +24,6 @@ encoder's output for those PNG texels, so a reader makes them exactly as groundm
 from __future__ import annotations
 
 import io
-import json
 import struct
 from pathlib import Path
 
