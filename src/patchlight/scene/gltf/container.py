@@ -97,6 +97,53 @@ def _check_structure(raw: dict, path: Path) -> None:
             raise bad(f"'{key}' must be a list of extension names")
     if not isinstance(raw.get("extensions", {}), dict):
         raise bad("'extensions' must be an object")
+    _check_references(raw, bad)
+
+
+def _check_references(raw: dict, bad) -> None:
+    """Every accessor and bufferView reference the reader and the writer follow is a whole
+    number, inside objects and lists of the shapes they expect."""
+    def objects(value, where: str) -> list[dict]:
+        if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
+            raise bad(f"{where} must be a list of objects")
+        return value
+
+    def entry(value, where: str) -> dict:
+        if not isinstance(value, dict):
+            raise bad(f"{where} must be an object")
+        return value
+
+    def whole(holder: dict, keys, where: str) -> None:
+        for key in keys:
+            if key in holder and not _whole(holder[key]):
+                raise bad(f"{where}: {key} {holder[key]!r} is not a whole number >= 0")
+
+    for m, mesh in enumerate(raw.get("meshes", [])):
+        for p, primitive in enumerate(objects(mesh.get("primitives", []), f"meshes[{m}].primitives")):
+            where = f"meshes[{m}].primitives[{p}]"
+            whole(primitive, ("indices", "material", "mode"), where)
+            for attributes in [entry(primitive.get("attributes", {}), f"{where}.attributes"),
+                               *objects(primitive.get("targets", []), f"{where}.targets")]:
+                whole(attributes, list(attributes), where)
+            extensions = entry(primitive.get("extensions", {}), f"{where}.extensions")
+            whole(entry(extensions.get("KHR_draco_mesh_compression", {}), f"{where} draco"), ("bufferView",), where)
+    for n, accessor in enumerate(raw.get("accessors", [])):
+        if "sparse" in accessor:
+            sparse = entry(accessor["sparse"], f"accessors[{n}].sparse")
+            whole(sparse, ("count",), f"accessors[{n}].sparse")
+            for part in ("indices", "values"):
+                whole(entry(sparse.get(part), f"accessors[{n}].sparse.{part}"),
+                      ("bufferView", "byteOffset", "componentType"), f"accessors[{n}].sparse.{part}")
+    for n, skin in enumerate(raw.get("skins", [])):
+        whole(skin, ("inverseBindMatrices", "skeleton"), f"skins[{n}]")
+    for a, animation in enumerate(raw.get("animations", [])):
+        for n, sampler in enumerate(objects(animation.get("samplers", []), f"animations[{a}].samplers")):
+            whole(sampler, ("input", "output"), f"animations[{a}].samplers[{n}]")
+    for n, node in enumerate(raw.get("nodes", [])):
+        instancing = entry(entry(node.get("extensions", {}), f"nodes[{n}].extensions")
+                           .get("EXT_mesh_gpu_instancing", {}), f"nodes[{n}] instancing")
+        attributes = entry(instancing.get("attributes", {}), f"nodes[{n}] instancing attributes")
+        whole(attributes, list(attributes), f"nodes[{n}] instancing")
 
 
 def _whole(value) -> bool:
