@@ -63,9 +63,11 @@ def main() -> None:
               f"{len(set(signatures) - set(earlier))} new")
         for signature in sorted(set(signatures) - set(earlier)):
             print(f"  new: {signature}")
-        before = json.loads(args.compare.read_text()).get("cases", [])
-        changed = Counter(f"exit {old[2]} -> exit {new[2]}" for old, new in zip(before, statuses) if old[2] != new[2])
-        print("cases whose exit status changed: " + (", ".join(f"{k}: {n}" for k, n in sorted(changed.items())) or "none"))
+        before = json.loads(args.compare.read_text()).get("cases")
+        if before:
+            changed = Counter(f"exit {old[2]} -> {new[2]}" for old, new in zip(before, statuses) if old[2] != new[2])
+            print("cases whose exit status changed: " + (", ".join(f"{k}: {n}" for k, n in sorted(changed.items()))
+                                                          or "none"))
 
 
 if __name__ == "__main__":
