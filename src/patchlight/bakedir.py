@@ -24,7 +24,6 @@ write are removed (STALE). A directory is a (complete) bake only with bake.json.
 from __future__ import annotations
 
 import io
-import json
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,12 +69,10 @@ def require_bake_dir(path: str | Path) -> Path:
 def read_summary(path: str | Path) -> dict:
     """The bake.json of bake directory `path`, parsed."""
     from .imaging.io import read_bytes
+    from .limits import load_json
 
     where = Path(path) / MARKER
-    try:
-        summary = json.loads(read_bytes(where))
-    except ValueError:
-        summary = None
+    summary = load_json(read_bytes(where), str(where))
     if not isinstance(summary, dict) or not isinstance(summary.get("settings"), dict):
         raise PatchlightError(f"{where}: not a bake summary (no settings in it)")
     return summary
