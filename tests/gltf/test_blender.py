@@ -19,11 +19,25 @@ from patchlight.inputs import open_input
 SIZE = 64
 RENDER = Path(__file__).with_name("blender_render.py")
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("bpy") is None,
-                                reason="bpy is not installed (pip install 'patchlight[blender]'; bpy 5.0 needs "
-                                       "Python 3.11): the Blender test does not run")
+needs_bpy = pytest.mark.skipif(importlib.util.find_spec("bpy") is None,
+                               reason="bpy is not installed (pip install 'patchlight[blender]'; bpy 5.0 needs "
+                                      "Python 3.11): the Blender test does not run")
 
 
+def test_without_bpy_or_a_bake_one_line_says_what_to_do(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "bpy", None)  # import bpy fails, as where it is not installed
+    (tmp_path / "bake").mkdir()
+    for name in ("scene.glb", "lightmap.exr"):
+        (tmp_path / "bake" / name).write_bytes(b"")
+    assert main(["blender", str(tmp_path / "bake"), "-o", str(tmp_path / "x.blend")]) == 2
+    err = capsys.readouterr().err
+    assert "pip install 'patchlight[blender]'" in err and err.count("\n") == 1
+    assert main(["blender", str(tmp_path), "-o", str(tmp_path / "x.blend")]) == 2
+    assert "not a bake directory (scene.glb is missing)" in capsys.readouterr().err
+    assert not (tmp_path / "x.blend").exists()
+
+
+@needs_bpy
 def test_cycles_shows_the_baked_light_as_the_cpu_renderer(tmp_path):
     bake_dir = tmp_path / "room"
     assert main(["bake", "room", "-o", str(bake_dir), "--resolution", "64", "--rays", "256", "--quiet"]) == 0

@@ -75,7 +75,7 @@ def test_scene_glb_through_the_plugin_matches_the_cpu_lightmap_render(browser, t
 
 
 def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_path):
-    """--keep-lights: the sun is left out of the lightmap and unmarked, so three.js lights the
+    """--keep-lights: the sun is left out of the lightmap and marked baked false, so three.js lights the
     room with it (brighter than the lightmap alone); baked, the plugin turned it off (above)."""
     if three_missing():
         pytest.skip(three_missing())

@@ -26,7 +26,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     add_scene_options(p)
     p.add_argument("--keep-lights", nargs="?", const="all", metavar="NAME,...",
                    help="leave these lights (by name, or all when no names are given) out of the bake: they stay "
-                        "dynamic, unmarked in scene.glb, for the runtime to light")
+                        "dynamic (extras.baked false in scene.glb), for the runtime to light")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--resolution", type=int, metavar="N", help=about("resolution"))
     size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T",
