@@ -1,7 +1,6 @@
 """Everything `patchlight view` serves for one target, built from the CPU renderer's pieces."""
 from __future__ import annotations
 
-import json
 import threading
 from pathlib import Path
 
@@ -10,7 +9,7 @@ import numpy as np
 from .. import bakedir
 from ..errors import PatchlightError
 from ..imaging.exposure import auto_exposure
-from ..imaging.io import read_bytes
+from ..imaging.io import json_text, read_bytes
 from ..patchview import PatchViews
 from ..render.renderer import ENV_MODELS, Renderer
 from ..render.target import Target
@@ -91,7 +90,6 @@ class PatchEndpoint:
 
     def __call__(self, x: int, y: int) -> bytes:
         try:
-            answer = self.views().at(x, y).to_json()
+            return json_text(self.views().at(x, y).to_json(), "patch view", indent=None).encode()
         except PatchlightError as exc:
-            answer = {"error": str(exc)}
-        return json.dumps(answer, separators=(",", ":")).encode()
+            return json_text({"error": str(exc)}, "patch view", indent=None).encode()
