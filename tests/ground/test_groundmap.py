@@ -331,3 +331,23 @@ def test_no_sun_turns_shadows_off_with_one_warning():
     gm = bake(b, shadows="hsv")
     assert len(gm.warnings) == 1 and "no sun" in gm.warnings[0]
     assert np.all(gm.shadow == 1.0) and gm.sun is None
+
+
+def test_a_map_swapped_in_while_it_is_read_is_read_whole_again(tmp_path, monkeypatch):
+    """A rewrite landing between the manifest and the texels (here: during the first texel
+    read) never pairs one map's manifest with the other's texels: the set is read again."""
+    import patchlight.ground.files as files
+    b, lights = level()
+    small, large = bake(b, lights, size=32), bake(b, lights, size=64)
+    write_groundmap(small, tmp_path, "small", "../bake")
+    original, swaps = files.read_texels, []
+
+    def swapping_read(directory, name):
+        if not swaps:
+            swaps.append(name)
+            write_groundmap(large, tmp_path, "large", "../bake")
+        return original(directory, name)
+
+    monkeypatch.setattr(files, "read_texels", swapping_read)
+    inputs = load_ground_map(tmp_path)
+    assert swaps and inputs.texture.shape[:2] == (64, 64)

@@ -217,8 +217,16 @@ def load_ground_map(directory, block_compressed: bool = False, manifest: dict | 
     """The hemisphere-radiosity model's inputs (shading.hemisphere_radiosity.GroundMapInputs)
     from a ground map directory: its PNG texels, or with block_compressed its DDS texels as
     a GPU decodes them. The offset distance and mode are the manifest's (mode "normal" when it
-    names none). manifest: the directory's, when already read."""
-    manifest = manifest or read_manifest(directory)
+    names none). manifest: the directory's, when already read (the caller then reads the set
+    consistently); else manifest and maps are read again if the folder is swapped meanwhile."""
+    if manifest is None:
+        from ..outputs import read_consistently
+        return read_consistently(directory, lambda: _load_ground_map(directory, block_compressed,
+                                                                      read_manifest(directory)))
+    return _load_ground_map(directory, block_compressed, manifest)
+
+
+def _load_ground_map(directory, block_compressed: bool, manifest: dict):
     kind = "dds" if block_compressed else "png"
     files = manifest["files"]
 

@@ -110,7 +110,8 @@ def open_ground_map_dir(directory, manifest: dict | None = None) -> tuple[str | 
 def ground_map_target(directory, offset_mode: str | None = None) -> tuple[str, ViewerGroundMap]:
     """For `patchlight render` and `view` (patchlight.inputs): a ground map directory's bake
     (absolute) and its map; offset_mode, when given, replaces the map's recorded one."""
-    manifest = read_manifest(directory)
+    from ..outputs import read_consistently
+    manifest, (_, ground_map) = read_consistently(directory, lambda: _manifest_and_map(directory))
     shown = bake_of(directory, manifest)
     where = Path(directory) / MANIFEST
     if shown is None:
@@ -120,7 +121,12 @@ def ground_map_target(directory, offset_mode: str | None = None) -> tuple[str, V
     if not is_bake_dir(shown):
         raise PatchlightError(f"{where}: its bake {shown} is not a complete bake (moved or deleted?); "
                               f"make the map again with `patchlight groundmap`")
-    _, ground_map = open_ground_map_dir(directory, manifest)
     if offset_mode is not None:
         ground_map.offset_mode = offset_mode
     return shown, ground_map
+
+
+def _manifest_and_map(directory):
+    """The manifest and the map it describes (open_ground_map_dir), read as one set."""
+    manifest = read_manifest(directory)
+    return manifest, open_ground_map_dir(directory, manifest)
