@@ -244,9 +244,17 @@ def read_texels(bake_dir: str | Path) -> Texels | None:
             texels = Texels(**{name: data[name] for name in Texels.__dataclass_fields__})
     except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
         raise PatchlightError(f"{path}: not a readable texels file ({exc})") from None
+    arrays = {name: getattr(texels, name) for name in Texels.__dataclass_fields__}
+    if any(a.dtype.kind not in "fiu" for a in arrays.values()):
+        raise PatchlightError(f"{path}: arrays that do not hold numbers")
+    if texels.status.ndim != 2 or texels.status.size == 0 or len(texels.passes) == 0:
+        raise PatchlightError(f"{path}: no texels or no passes")
     h, w = texels.status.shape
-    if texels.passes.ndim != 4 or texels.passes.shape[1:] != (h, w, 3) or texels.excident.shape != (h, w, 3):
-        raise PatchlightError(f"{path}: arrays of mismatched shapes")
+    shapes = {"passes": (len(texels.passes), h, w, 3), "chart": (h, w), "rho": (h, w, 3), "emission": (h, w, 3),
+              "excident": (h, w, 3)}
+    wrong = [name for name, shape in shapes.items() if arrays[name].shape != shape]
+    if wrong:
+        raise PatchlightError(f"{path}: arrays of mismatched shapes ({', '.join(wrong)} against status {h} x {w})")
     if not all(np.isfinite(a).all() for a in (texels.passes, texels.rho, texels.emission, texels.excident)):
         raise PatchlightError(f"{path}: values that are not finite")
     if texels.status.min() < 0 or texels.status.max() >= len(STATUS_NAMES):

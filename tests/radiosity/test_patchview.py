@@ -158,3 +158,24 @@ def test_a_damaged_texels_file_or_bake_json_is_one_line(baked, tmp_path):
     (broken / "bake.json").write_text('{"settings": {}}')
     with pytest.raises(PatchlightError, match="bake.json: no readable gather settings"):
         PatchViews(broken)
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda a: a.update(status=a["status"].reshape(-1)[:7]), "no texels or no passes"),
+    (lambda a: a.update(passes=a["passes"][:0]), "no texels or no passes"),
+    (lambda a: a.update(chart=np.array(["x"] * 4)), "arrays that do not hold numbers"),
+    (lambda a: a.update(rho=a["rho"][:, :5]), r"arrays of mismatched shapes \(rho against status"),
+    (lambda a: a.update(passes=a["passes"][..., :2]), r"arrays of mismatched shapes \(passes against status"),
+])
+def test_texels_arrays_of_the_wrong_shape_or_kind_are_one_line(baked, tmp_path, damage, message):
+    """Each array of texels.npz is checked against the status image's size before any reader
+    indexes it (a short status array was a ValueError traceback from `render`)."""
+    _, out = baked
+    with np.load(out / "texels.npz") as data:
+        arrays = {name: data[name] for name in data.files}
+    damage(arrays)
+    broken = tmp_path / "broken"
+    shutil.copytree(out, broken)
+    np.savez(broken / "texels.npz", **arrays)
+    with pytest.raises(PatchlightError, match=f"texels.npz: {message}"):
+        read_texels(broken)
