@@ -105,6 +105,37 @@ def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
 
 
+def test_a_del_failing_because_of_the_interrupt_adds_no_lines(monkeypatch, capsys):
+    """An object the interrupt left half built (llvmlite's, when Ctrl-C lands while numba
+    compiles) fails in its __del__ as the stop unwinds: still one line, no "Exception ignored"
+    traceback after it."""
+    import argparse
+
+    import patchlight.cli.parser as parser_module
+
+    class HalfBuilt:
+        def __del__(self):
+            del self.handle  # never set: the interrupt came first
+
+    def work(args):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
+        finally:
+            HalfBuilt()
+        return 0
+
+    def build_parser():
+        parser = argparse.ArgumentParser()
+        parser.set_defaults(func=work)
+        return parser
+
+    monkeypatch.setattr(parser_module, "build_parser", build_parser)
+    monkeypatch.setattr(sys, "unraisablehook", sys.__unraisablehook__)  # Python's, which prints; not pytest's
+    assert main([]) == 130
+    assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
+
+
 def test_the_process_ends_after_the_work_and_a_signal_while_winding_down_ends_it_at_once():
     """main() of the command line runs the exit handlers and ends the process (no slow
     teardown); a Ctrl-C during those handlers ends it at once with 130, no traceback."""

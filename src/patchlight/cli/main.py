@@ -90,6 +90,7 @@ class _StopSignals:
     def __init__(self, winding_down: bool = False):
         self.winding_down = winding_down
         self.received: int | None = None
+        self.stopping = False  # a signal came: the command is stopping
         self.pending = signal.SIGINT
         self.previous: dict = {}
         self.previous_hook = sys.unraisablehook
@@ -107,12 +108,14 @@ class _StopSignals:
     def __exit__(self, *exc) -> None:
         if self.previous:
             signal.setitimer(signal.ITIMER_REAL, 0)
-            sys.unraisablehook = self.previous_hook
+            stopped_for_good = self.stopping and self.winding_down
+            sys.unraisablehook = _ignore if stopped_for_good else self.previous_hook
         for number, handler in self.previous.items():
             stop_now = self.winding_down and number != signal.SIGALRM
             signal.signal(number, _exit_now if stop_now else handler)
 
     def stop(self, number, frame) -> None:
+        self.stopping = True
         if self.received is None:
             self.received = number
             raise KeyboardInterrupt
@@ -124,8 +127,14 @@ class _StopSignals:
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.received is not None:
             self.pending, self.received = self.received, None
             signal.setitimer(signal.ITIMER_REAL, 0.005)
-        else:
+        elif not self.stopping:
             self.previous_hook(unraisable)
+        # else an object the interrupt left half built failed in its __del__ (llvmlite's, when
+        # the signal lands while numba compiles): part of the stop, not news to the user
+
+
+def _ignore(unraisable) -> None:
+    """sys.unraisablehook once a stopped command winds down (_StopSignals.dropped)."""
 
 
 def _exit_now(number, frame) -> None:
