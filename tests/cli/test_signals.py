@@ -75,13 +75,24 @@ def test_ctrl_c_in_the_volume_kernels_is_one_line_and_130(tmp_path, room_bake, d
     assert not out.exists()
 
 
-def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
-    """A Ctrl-C landing in a __del__ (Python can only drop it there: "Exception ignored in")
-    is delivered again a moment later, so the command still stops, with one line."""
+def run_as_command(monkeypatch, work) -> int:
+    """main() with work(args) as its only command: the command line's signal handling around it."""
     import argparse
 
     import patchlight.cli.parser as parser_module
 
+    def build_parser():
+        parser = argparse.ArgumentParser()
+        parser.set_defaults(func=work)
+        return parser
+
+    monkeypatch.setattr(parser_module, "build_parser", build_parser)
+    return main([])
+
+
+def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
+    """A Ctrl-C landing in a __del__ (Python can only drop it there: "Exception ignored in")
+    is delivered again a moment later, so the command still stops, with one line."""
     class Dropper:
         def __del__(self):
             os.kill(os.getpid(), signal.SIGINT)
@@ -93,14 +104,8 @@ def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
         time.sleep(5)  # interrupted by the second delivery
         return 0
 
-    def build_parser():
-        parser = argparse.ArgumentParser()
-        parser.set_defaults(func=work)
-        return parser
-
-    monkeypatch.setattr(parser_module, "build_parser", build_parser)
     started = time.monotonic()
-    assert main([]) == 130
+    assert run_as_command(monkeypatch, work) == 130
     assert time.monotonic() - started < 4
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
 
@@ -109,10 +114,6 @@ def test_a_del_failing_because_of_the_interrupt_adds_no_lines(monkeypatch, capsy
     """An object the interrupt left half built (llvmlite's, when Ctrl-C lands while numba
     compiles) fails in its __del__ as the stop unwinds: still one line, no "Exception ignored"
     traceback after it."""
-    import argparse
-
-    import patchlight.cli.parser as parser_module
-
     class HalfBuilt:
         def __del__(self):
             del self.handle  # never set: the interrupt came first
@@ -125,14 +126,8 @@ def test_a_del_failing_because_of_the_interrupt_adds_no_lines(monkeypatch, capsy
             HalfBuilt()
         return 0
 
-    def build_parser():
-        parser = argparse.ArgumentParser()
-        parser.set_defaults(func=work)
-        return parser
-
-    monkeypatch.setattr(parser_module, "build_parser", build_parser)
     monkeypatch.setattr(sys, "unraisablehook", sys.__unraisablehook__)  # Python's, which prints; not pytest's
-    assert main([]) == 130
+    assert run_as_command(monkeypatch, work) == 130
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
 
 
