@@ -1,6 +1,8 @@
 """Every glTF the project writes passes the Khronos glTF validator (npm gltf-validator) with
 zero errors: bakes of the built-in scenes (flattened writer), of a glTF file (the writer that
-keeps the file) and of a baked scene.glb again, and vertexbake's output from either."""
+keeps the file) and of a baked scene.glb again, and vertexbake's output from either. In a
+bake, the lightmap texture and every TEXCOORD_1 are used in the validator's eyes (through the
+occlusionTexture stand-in at strength 0), and a material's own occlusion map is kept."""
 from __future__ import annotations
 
 import json
@@ -9,8 +11,10 @@ import numpy as np
 import pytest
 
 from patchlight.cli.main import main
+from patchlight.imaging.io import encode_png
 from patchlight.scene import load_scene
 from patchlight.scene.gltf import load_gltf, save_baked_glb
+from patchlight.scene.gltf.container import pack_glb, split_glb
 
 from validator import problems, validate, validator_missing
 
@@ -26,8 +30,10 @@ def written(tmp_path_factory) -> dict:
         pytest.skip(reason)
     root = tmp_path_factory.mktemp("written")
     source = save_baked_glb(load_scene("cornell"), root / "cornell_input.glb")  # a glTF file, not built in
+    occluded = with_own_occlusion(source, root / "occluded_input.glb")
     files = {}
-    for name, scene in (("room", "room"), ("cornell", "cornell"), ("track", "track"), ("gltf", source)):
+    for name, scene in (("room", "room"), ("cornell", "cornell"), ("track", "track"), ("gltf", source),
+                        ("gltf with an occlusion map", occluded)):
         resolution = ["--resolution", RESOLUTION.get(name, "64")]
         assert main(["bake", str(scene), "-o", str(root / name), *resolution, *QUICK]) == 0
         files[f"bake {name}"] = root / name / "scene.glb"
@@ -46,10 +52,47 @@ def document(path) -> dict:
     return json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
 
 
+OWN_OCCLUSION = {"index": None, "texCoord": 0, "strength": 0.7}  # index: the texture added
+
+
+def with_own_occlusion(source, out):
+    """A copy of the .glb `source` whose first material has an occlusion map of its own (a grey PNG)."""
+    text, blob = split_glb(source.read_bytes(), source)
+    doc, blob = json.loads(text), bytearray(blob)
+    png = encode_png(np.full((4, 4, 3), 200, np.uint8))
+    blob += b"\0" * (-len(blob) % 4)
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(png)})
+    blob += png + b"\0" * (-len(png) % 4)
+    doc["buffers"][0]["byteLength"] = len(blob)
+    doc.setdefault("images", []).append({"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/png"})
+    doc.setdefault("textures", []).append({"source": len(doc["images"]) - 1, "name": "own occlusion"})
+    doc["materials"][0]["occlusionTexture"] = {**OWN_OCCLUSION, "index": len(doc["textures"]) - 1}
+    out.write_bytes(pack_glb(json.dumps(doc).encode(), bytes(blob)))
+    return out
+
+
 def test_every_file_the_project_writes_has_zero_validator_errors(written):
     reports = validate(*written.values())
     for (name, path), report in zip(written.items(), reports):
         assert report["errors"] == 0, (name, problems(report))
+
+
+def test_no_bake_leaves_the_lightmap_or_its_uvs_unused(written):
+    """The validator's UNUSED_OBJECT (it does not know MOZ_lightmap) names neither the lightmap
+    texture nor any TEXCOORD_1: the occlusionTexture stand-in uses both. The one exception is
+    a material with an occlusion map of its own on TEXCOORD_0, which is kept untouched: its
+    primitives' TEXCOORD_1 is read by MOZ_lightmap alone."""
+    bakes = [name for name in written if name.startswith("bake")]
+    for name, report in zip(bakes, validate(*(written[n] for n in bakes))):
+        doc = document(written[name])
+        texture = doc["extras"]["patchlight"]["lightmap"]["texture"]
+        own = {f"/meshes/{m}/primitives/{k}/attributes/TEXCOORD_1" for m, mesh in enumerate(doc["meshes"])
+               for k, p in enumerate(mesh["primitives"])
+               if doc["materials"][p["material"]]["occlusionTexture"]["index"] != texture}
+        unused = [m["pointer"] for m in report["messages"] if m["code"] == "UNUSED_OBJECT"]
+        assert f"/textures/{texture}" not in unused, (name, unused)
+        assert {p for p in unused if p.endswith("/TEXCOORD_1")} == own, (name, unused)
+        assert bool(own) == (name == "bake gltf with an occlusion map"), name
 
 
 def test_every_lightmapped_material_references_the_lightmap(written):
@@ -61,6 +104,9 @@ def test_every_lightmapped_material_references_the_lightmap(written):
         for material in lit:
             assert doc["materials"][material]["extensions"]["MOZ_lightmap"] == {
                 "index": info["texture"], "texCoord": 1, "intensity": info["intensity"]}, name
+            if not (name == "bake gltf with an occlusion map" and material == 0):
+                assert doc["materials"][material]["occlusionTexture"] == {
+                    "index": info["texture"], "texCoord": 1, "strength": 0.0}, name
         assert {"MOZ_lightmap", "MOZ_texture_rgbe"} <= set(doc["extensionsUsed"]), name
         assert sum(t.get("name") == "patchlight_lightmap" for t in doc["textures"]) == 1, name
 
@@ -74,3 +120,16 @@ def test_vertexbake_colours_lie_in_0_1_with_their_scale_recorded(written):
         assert "lightmap" not in doc["extras"]["patchlight"], name  # the light is in COLOR_0 only
         assert all("MOZ_lightmap" not in m.get("extensions", {}) for m in doc["materials"]), name
     assert np.isclose(load_gltf(written["vertexbake of a bake"]).colors[:, :3].max(), 1.0)  # the brightest is 1
+
+
+def test_a_material_keeps_its_own_occlusion_map(written):
+    doc = document(written["bake gltf with an occlusion map"])
+    own = doc["materials"][0]["occlusionTexture"]
+    assert {**own, "index": None} == OWN_OCCLUSION
+    assert doc["textures"][own["index"]]["name"] == "own occlusion"
+    assert doc["extras"]["patchlight"]["lightmap"]["texture"] != own["index"]
+
+
+def test_vertexbake_of_a_bake_drops_the_occlusion_stand_in(written):
+    doc = document(written["vertexbake of a bake"])
+    assert all("occlusionTexture" not in m for m in doc["materials"])

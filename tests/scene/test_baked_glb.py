@@ -223,10 +223,14 @@ def check_intact(source, out, source_folder):
 
 
 def without_marks(doc: dict) -> dict:
-    """A copy of doc without what the bake adds to materials (MOZ_lightmap) and lights (extras.baked)."""
+    """A copy of doc without what the bake adds to materials (MOZ_lightmap, and the lightmap as
+    occlusionTexture at strength 0 where a material has no occlusion map of its own) and lights
+    (extras.baked)."""
     doc = json.loads(json.dumps(doc))
     for material in doc.get("materials", []):
-        material.get("extensions", {}).pop("MOZ_lightmap", None)
+        lightmap = material.get("extensions", {}).pop("MOZ_lightmap", None)
+        if lightmap and material.get("occlusionTexture") == {"index": lightmap["index"], "texCoord": 1, "strength": 0.0}:
+            del material["occlusionTexture"]
         if material.get("extensions") == {}:
             del material["extensions"]
     for light in doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", []):

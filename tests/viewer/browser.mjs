@@ -5,7 +5,8 @@
 //                                                 write OUT_DIR/<name>.rgba (raw RGBA, top row first).
 //       A case's `volume` {objects, probes, time, look_at_sphere} first shows or hides the light
 //       volume's moving objects and probe cubes and sets their time (look_at_sphere: aim the
-//       camera at the sphere's centre from that offset); the objects' places go to the log.
+//       camera at the sphere's centre from that offset); the objects' places go to the log, and
+//       so do the maps of scene.glb's three.js materials (log.engine).
 //   node browser.mjs smoke URL OUT_DIR             load the page as a person would, pick every model
 //                                                 and option from the controls, save screenshot.png
 //   node browser.mjs controls URL SCRIPT.json OUT_DIR  with the page's own controls, run the script's
@@ -66,6 +67,15 @@ async function cases(url, casesFile, outDir) {
   await withPage(`${url}?test=1`, outDir, async (page, log) => {
     log.seconds = {};
     log.volume = { baked: await page.evaluate(() => window.patchlight.volume.baked), objects: {} };
+    log.engine = await page.evaluate(() => {  // scene.glb's three.js materials: which maps they sample
+      const materials = {};
+      window.patchlight.viewer.engineScene?.traverse((o) => {
+        for (const m of o.isMesh ? [o.material].flat() : []) {
+          materials[m.name] = { lightMap: Boolean(m.lightMap), aoMap: Boolean(m.aoMap), normalMap: Boolean(m.normalMap) };
+        }
+      });
+      return materials;
+    });
     for (const spec of specs) {
       const start = Date.now();
       const result = await page.evaluate((s) => {

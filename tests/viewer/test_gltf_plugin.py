@@ -2,7 +2,8 @@
 scene.glb, loaded as a three.js app loads it (GLTFLoader + the plugin, three.js's own
 materials; the viewer's scene.glb view), looks like `patchlight render --model lightmap` from
 the same camera: within 2/255 on every smooth pixel (one whose 3 x 3 neighbourhood in the CPU
-picture spans at most 2/255 and lies wholly on the surface). The room's lights are marked
+picture spans at most 2/255 and lies wholly on the surface), and no material samples the
+occlusionTexture that only marks the lightmap used (strength 0). The room's lights are marked
 baked, so the plugin turns them off; baked with --keep-lights they stay on in three.js."""
 from __future__ import annotations
 
@@ -39,9 +40,10 @@ def neighbourhood_span(picture: np.ndarray) -> np.ndarray:
     return span
 
 
-def cpu_and_three(browser, bake_dir, tmp_path) -> tuple[np.ndarray, np.ndarray]:
-    """(CPU picture (H, W, 3), three.js picture (H, W, 4)) of the bake from its default camera,
-    int32 0..255: `patchlight render --model lightmap`, and the viewer's scene.glb view."""
+def cpu_and_three(browser, bake_dir, tmp_path) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(CPU picture (H, W, 3), three.js picture (H, W, 4), the three.js materials' maps) of the
+    bake from its default camera, int32 0..255: `patchlight render --model lightmap`, and the
+    viewer's scene.glb view."""
     target, _ = open_input(str(bake_dir)).target()
     c = Renderer(target).default_camera().to_json()
     cpu_png = tmp_path / "cpu.png"
@@ -52,14 +54,16 @@ def cpu_and_three(browser, bake_dir, tmp_path) -> tuple[np.ndarray, np.ndarray]:
     spec = {"name": "engine", "model": "lightmap", "engine": True, "camera": c, "width": SIZE, "height": SIZE,
             "exposure": EXPOSURE}
     with make_server(target, target_settings(target, model="lightmap"), exposure=EXPOSURE) as server:
-        pictures, _ = browser.cases(server.url, [spec], tmp_path)
-    return cpu, pictures["engine"].astype(np.int32)
+        pictures, log = browser.cases(server.url, [spec], tmp_path)
+    return cpu, pictures["engine"].astype(np.int32), log["engine"]
 
 
 def test_scene_glb_through_the_plugin_matches_the_cpu_lightmap_render(browser, tmp_path_factory, tmp_path):
     if three_missing():
         pytest.skip(three_missing())
-    cpu, gpu = cpu_and_three(browser, bake(tmp_path_factory), tmp_path)
+    cpu, gpu, materials = cpu_and_three(browser, bake(tmp_path_factory), tmp_path)
+    # every material shows the lightmap; its occlusionTexture stand-in (strength 0) is never sampled
+    assert materials and all(m["lightMap"] and not m["aoMap"] for m in materials.values()), materials
     covered = gpu[..., 3] > 0
     inside = np.zeros_like(covered)
     inside[1:-1, 1:-1] = np.stack([covered[1 + dy:SIZE - 1 + dy, 1 + dx:SIZE - 1 + dx]
@@ -79,6 +83,6 @@ def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_
     room with it (brighter than the lightmap alone); baked, the plugin turned it off (above)."""
     if three_missing():
         pytest.skip(three_missing())
-    cpu, gpu = cpu_and_three(browser, bake(tmp_path_factory, "--keep-lights"), tmp_path)
+    cpu, gpu, _ = cpu_and_three(browser, bake(tmp_path_factory, "--keep-lights"), tmp_path)
     covered = gpu[..., 3] > 0
     assert (gpu[..., :3] - cpu)[covered].mean() > 10

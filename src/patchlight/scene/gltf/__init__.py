@@ -76,7 +76,13 @@ replaces its images), referenced by every material of the lightmapped primitives
     "extensions": {"MOZ_lightmap": {"index": <texture>, "texCoord": 1, "intensity": pi x scale}}
 
 (three.js: material.lightMap, channel 1, lightMapIntensity; its lightMap is irradiance, which
-a diffuse surface turns into albedo / pi x irradiance = albedo x I).  The texture's source is
+a diffuse surface turns into albedo / pi x irradiance = albedo x I), and, unless the material
+has an occlusion map of its own (kept as it is), as
+
+    "occlusionTexture": {"index": <texture>, "texCoord": 1, "strength": 0}
+
+glTF's no-op (occlusion 1 + strength x (texel - 1) = 1), so that validators and pruning tools,
+which do not know MOZ_lightmap, see the texture and TEXCOORD_1 used.  The texture's source is
 the 8-bit PNG any viewer can read; its MOZ_texture_rgbe extension names the HDR Radiance .hdr
 image (mimeType image/vnd.radiance) that three.js's HDRLoader decodes
 (`viewer/static/patchlight_gltf.js`, the GLTFLoader plugin, does it).  The texture is linear

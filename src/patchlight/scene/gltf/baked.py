@@ -38,6 +38,22 @@ def lightmap_reference(texture: int, lightmap: EncodedLightmap) -> dict:
     return {"index": texture, "texCoord": 1, "intensity": _lightmap_intensity(lightmap)}
 
 
+def lightmap_occlusion(texture: int) -> dict:
+    """The occlusionTexture a lightmapped material without one of its own gets: the lightmap
+    at strength 0, glTF's exact no-op (occlusion = 1 + strength x (texel - 1)). It shades
+    nothing; validators and tools that prune unused data see the lightmap texture and
+    TEXCOORD_1 as used (they do not know MOZ_lightmap)."""
+    return {"index": texture, "texCoord": 1, "strength": 0.0}
+
+
+def is_lightmap_occlusion(occlusion, textures: list) -> bool:
+    """Whether a material's occlusionTexture (JSON) is the stand-in of `lightmap_occlusion`:
+    it names a texture called LIGHTMAP_NAME (this bake's or an earlier one's)."""
+    index = occlusion.get("index") if isinstance(occlusion, dict) else None
+    return (isinstance(index, int) and 0 <= index < len(textures) and isinstance(textures[index], dict)
+            and textures[index].get("name") == LIGHTMAP_NAME)
+
+
 def jsonable(value):
     """Numpy scalars and arrays inside dicts/lists turned into plain JSON values."""
     if isinstance(value, dict):

@@ -14,7 +14,7 @@ from ...imaging.io import check_finite, encode_png
 from ...imaging.lightmap import EncodedLightmap
 from ..model import Light, Material, Scene
 from .container import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT, LUMENS_PER_WATT, TRIANGLES, UINT, float_list
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
 
 def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool,
                    extras: dict) -> bytes:
@@ -161,7 +161,8 @@ class _GlbWriter:
 
     def lightmap(self, lightmap: EncodedLightmap, meta: dict) -> None:
         """The lightmap as texture "patchlight_lightmap" (PNG source, .hdr through MOZ_texture_rgbe),
-        MOZ_lightmap on every material, and its description in the root extras."""
+        MOZ_lightmap and the occlusionTexture stand-in (baked.lightmap_occlusion) on every material,
+        and its description in the root extras."""
         description = lightmap_description(lightmap, meta)
         self.doc.samplers.append(gl.Sampler(**LIGHTMAP_SAMPLER))
         texture = self.texture(lightmap.png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1)
@@ -169,6 +170,7 @@ class _GlbWriter:
         self.doc.textures[texture].extensions = {MOZ_RGBE: {"source": len(self.doc.images) - 1}}
         for material in self.doc.materials:
             material.extensions = {**(material.extensions or {}), MOZ_LIGHTMAP: lightmap_reference(texture, lightmap)}
+            material.occlusionTexture = gl.OcclusionTextureInfo(**lightmap_occlusion(texture))
         for name in (MOZ_LIGHTMAP, MOZ_RGBE):
             self.use_extension(name)
         description["texture"] = texture

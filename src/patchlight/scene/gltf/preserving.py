@@ -14,7 +14,7 @@ from ...imaging.io import read_bytes
 from ...imaging.lightmap import EncodedLightmap
 from ..model import Scene
 from .container import Document, FLOAT, GLB_MAGIC, POINTS_AND_LINES, TRIANGLES, UINT, attribute_map, document_text, file_stamp, split_glb
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
 from .editor import GlbEditor
 
 class SourceWriter(GlbEditor):
@@ -181,10 +181,12 @@ class SourceWriter(GlbEditor):
 
     def mark_unlit(self) -> None:
         """KHR_materials_unlit on every material, listed as used (not required); the light is in
-        COLOR_0, so an earlier bake's MOZ_lightmap references and description go."""
+        COLOR_0, so an earlier bake's MOZ_lightmap references, occlusion stand-ins and description go."""
         for material in self.raw.get("materials") or []:
             material.setdefault("extensions", {})[UNLIT] = {}
             material["extensions"].pop(MOZ_LIGHTMAP, None)
+            if is_lightmap_occlusion(material.get("occlusionTexture"), self.raw.get("textures") or []):
+                del material["occlusionTexture"]
         if MOZ_LIGHTMAP in (self.raw.get("extensionsUsed") or []):
             self.raw["extensionsUsed"].remove(MOZ_LIGHTMAP)
         patchlight = (self.raw.get("extras") or {}).get("patchlight")
@@ -325,7 +327,8 @@ class SourceWriter(GlbEditor):
     def lightmap(self, lightmap: EncodedLightmap, meta: dict, primitives: dict[int, list[dict]]) -> None:
         """The lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the new
         images, else a new texture "patchlight_lightmap" (PNG source, .hdr through
-        MOZ_texture_rgbe); MOZ_lightmap on the materials of the triangle primitives written;
+        MOZ_texture_rgbe); MOZ_lightmap on the materials of the triangle primitives written, and
+        the lightmap as their occlusionTexture at strength 0 where they have none of their own;
         root extras.patchlight.lightmap."""
         raw = self.raw
         description = lightmap_description(lightmap, meta)
@@ -355,8 +358,10 @@ class SourceWriter(GlbEditor):
         lit = {p["material"] for written in primitives.values() for p in written
                if p.get("mode", TRIANGLES) not in POINTS_AND_LINES and isinstance(p.get("material"), int)}
         for number in sorted(m for m in lit if 0 <= m < len(materials)):
-            materials[number]["extensions"] = {**(materials[number].get("extensions") or {}),
-                                               MOZ_LIGHTMAP: lightmap_reference(texture, lightmap)}
+            material = materials[number]
+            material["extensions"] = {**(material.get("extensions") or {}), MOZ_LIGHTMAP: lightmap_reference(texture, lightmap)}
+            if "occlusionTexture" not in material or is_lightmap_occlusion(material["occlusionTexture"], textures):
+                material["occlusionTexture"] = lightmap_occlusion(texture)  # the file's own occlusion map stays
         used = raw.setdefault("extensionsUsed", [])
         used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]
         description["texture"] = texture

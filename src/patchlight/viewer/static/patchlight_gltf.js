@@ -11,6 +11,8 @@
 // - MOZ_texture_rgbe {source} on a texture: the HDR image (Radiance RGBE), decoded by three.js's
 //   own HDRLoader to half floats (options.float: to floats, which need OES_texture_float_linear);
 //   without this plugin a viewer takes the texture's 8-bit PNG source instead.
+// - occlusionTexture {index: the lightmap, strength: 0} (written so that validators see the
+//   lightmap and TEXCOORD_1 used): glTF's no-op, so the material's aoMap is dropped, never sampled.
 // - KHR_lights_punctual lights whose extras say {"baked": true}: their light is in the lightmap
 //   already, so they are turned off (light.visible = false) unless options.keepBakedLights.
 import { FloatType, HalfFloatType } from 'three';
@@ -38,12 +40,23 @@ export class PatchlightPlugin {
   }
 
   afterRoot(gltf) {
-    if (this.keepBakedLights) return null;
     for (const scene of gltf.scenes) {
       scene.traverse((object) => {
-        if (object.isLight && object.userData.baked === true) object.visible = false;
+        if (object.isLight && object.userData.baked === true && !this.keepBakedLights) object.visible = false;
+        for (const material of object.isMesh ? [object.material].flat() : []) {
+          if (this.isLightmapOcclusion(material)) material.aoMap = null;
+        }
       });
     }
     return null;
+  }
+
+  // Whether the material's aoMap comes from an occlusionTexture that is its lightmap at strength 0.
+  isLightmapOcclusion(material) {
+    const index = this.parser.associations.get(material)?.materials;
+    const def = index === undefined ? null : this.parser.json.materials[index];
+    const occlusion = def?.occlusionTexture;
+    return Boolean(occlusion && occlusion.strength === 0
+                   && occlusion.index === def.extensions?.MOZ_lightmap?.index);
   }
 }
