@@ -79,7 +79,7 @@ def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walle
                        advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is."""
-    from .atlas.raster import texel_points
+    from .atlas.raster import TexelPoints
 
     sampled = gatherer.emitters is not None and gatherer.nee_samples > 0
     seen = solution.excident - patches.emission if sampled else solution.excident
@@ -87,7 +87,8 @@ def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walle
     add_direct(sums, patches, scene.baked_lights, per_light)
     if sampled:
         side = math.isqrt(gatherer.nee_samples)
-        add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, texel_points(scene, patches, side),
+        points = TexelPoints(scene, patches)
+        add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows),
                      gatherer.offset, gatherer.tracer, gatherer.seed)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
@@ -104,7 +105,7 @@ def _join_cluster(address: str | None):
 
 def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True) -> BakeResult:
     """Bake converged radiosity for `scene`; nothing is written (see `patchlight.bakedir.write_bake`)."""
-    from .atlas.raster import rasterize, texel_points
+    from .atlas.raster import TexelPoints, rasterize
     from .atlas.uvs import ensure_lightmap_uvs
 
     settings = settings or BakeSettings()
@@ -134,15 +135,16 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
             lights = [[light] for light in scene.baked_lights] if settings.directional else [scene.baked_lights]
-            per_light = [texel_direct_light(lambda n, rows: texel_points(scene, patches, n, rows), patches, group,
+            points = TexelPoints(scene, patches)
+            per_light = [texel_direct_light(points, patches, group,
                                             tracer, settings.falloff, sun_angle, settings.sun_samples, offset,
                                             settings.texel_samples) for group in lights]
             direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
             emitters = find_emitters(scene, patches)
             samples = samples_per_texel(settings.emitter_samples)
             if emitters is not None and samples > 0:
-                points = texel_points(scene, patches, math.isqrt(samples))
-                direct += emitter_light(emitters, patches, gatherer.tri_uv1, points, offset, tracer,
+                side = math.isqrt(samples)
+                direct += emitter_light(emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows), offset, tracer,
                                         gatherer.rays_per_patch, settings.seed)
                 gatherer.emitters, gatherer.nee_samples = emitters, samples
         rays_direct = tracer.rays_traced

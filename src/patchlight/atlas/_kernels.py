@@ -254,6 +254,40 @@ def affine_barycentrics(px, py, ax, ay, bx, by, cx, cy):
     return 1.0 - l1 - l2, l1, l2
 
 
+@njit(cache=True, nogil=True)
+def sub_texel_points(rows, texel_x, texel_y, triangle, position, tex, corners, rim, n):
+    """(R, n*n, 3) f64 points on an n x n grid of sub-texel centres over the texels of
+    patches `rows` (R,), on the plane of each patch's triangle (`atlas.raster.TexelPoints`).
+
+    tex (T, 3, 2) f64 corners in texel units; corners (T, 3, 3) f64 world corners; rim (T, 3)
+    bool edges 01, 12, 20 on a chart's rim; position (N, 3) the patches' own points, taken
+    where a point falls past a rim edge or the triangle has no UV area."""
+    k_count = n * n
+    out = np.empty((rows.shape[0], k_count, 3))
+    for r in range(rows.shape[0]):
+        p = rows[r]
+        t = triangle[p]
+        ax, ay = tex[t, 0, 0], tex[t, 0, 1]
+        e1x, e1y = tex[t, 1, 0] - ax, tex[t, 1, 1] - ay
+        e2x, e2y = tex[t, 2, 0] - ax, tex[t, 2, 1] - ay
+        det = e1x * e2y - e1y * e2x
+        flat = abs(det) <= 1e-12
+        safe = 1.0 if flat else det
+        for k in range(k_count):
+            dx = texel_x[p] + (k // n + 0.5) / n - ax
+            dy = texel_y[p] + (k % n + 0.5) / n - ay
+            w1 = (dx * e2y - dy * e2x) / safe
+            w2 = (e1x * dy - e1y * dx) / safe
+            w0 = 1.0 - w1 - w2
+            if flat or (w0 < 0.0 and rim[t, 1]) or (w1 < 0.0 and rim[t, 2]) or (w2 < 0.0 and rim[t, 0]):
+                for a in range(3):
+                    out[r, k, a] = position[p, a]
+            else:
+                for a in range(3):
+                    out[r, k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
+    return out
+
+
 @njit(cache=True)
 def _wrap(i, n):
     return ((i % n) + n) % n

@@ -130,33 +130,25 @@ def _texel_size(tex, world_area):
     return size.astype(np.float32)
 
 
-def texel_points(scene: Scene, patches: Patches, n: int, rows: np.ndarray | None = None) -> np.ndarray:
-    """(R, n*n, 3) points spread over the footprint on its triangle of each texel of patches
-    `rows` (default: all), an n x n grid of sub-texel centres, for direct light without
-    staircase shadow edges. A point past an edge its triangle shares with another of the
-    chart continues the triangle's plane (exact on a flat chart, a texel's bend at most on a
-    curved one); a point past the chart's rim is replaced by the patch's own position."""
-    rows = np.arange(len(patches)) if rows is None else rows
-    position = patches.position[rows]
-    if n <= 1:
-        return position[:, None, :].astype(np.float64)
-    triangle = patches.triangle[rows]
-    corners_uv = scene.uv1[scene.indices[triangle]] * np.array([patches.width, patches.height])
-    corners = scene.positions[scene.indices[triangle]].astype(np.float64)  # (R, 3, 3)
-    sub = (np.arange(n) + 0.5) / n
-    sx, sy = np.meshgrid(sub, sub, indexing="ij")
-    px = patches.texel_x[rows, None] + sx.ravel()[None]                           # (R, n*n)
-    py = patches.texel_y[rows, None] + sy.ravel()[None]
-    a, b, c = (corners_uv[:, i][:, None, :] for i in range(3))
-    e1, e2 = b - a, c - a
-    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
-    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
-    dx, dy = px - a[..., 0], py - a[..., 1]
-    w1 = (dx * e2[..., 1] - dy * e2[..., 0]) / safe
-    w2 = (e1[..., 0] * dy - e1[..., 1] * dx) / safe
-    w0 = 1.0 - w1 - w2
-    points = w0[..., None] * corners[:, None, 0] + w1[..., None] * corners[:, None, 1] + w2[..., None] * corners[:, None, 2]
-    rim = uv_boundary_edges(scene.uv1, scene.indices)[triangle][:, None, :]  # (R, 1, 3): edges 01, 12, 20
-    off = (((w0 < 0) & rim[..., 1]) | ((w1 < 0) & rim[..., 2]) | ((w2 < 0) & rim[..., 0])
-           | (np.abs(det) <= 1e-12))
-    return np.where(off[..., None], position[:, None, :], points)
+class TexelPoints:
+    """Points spread over the footprint on its triangle of each texel, an n x n grid of
+    sub-texel centres, for direct light without staircase shadow edges. A point past an edge
+    its triangle shares with another of the chart continues the triangle's plane (exact on a
+    flat chart, a texel's bend at most on a curved one); a point past the chart's rim is
+    replaced by the patch's own position. Built once per bake; calls are thread-safe and
+    release the GIL (a numba kernel), so callers make them chunk by chunk on their threads."""
+
+    def __init__(self, scene: Scene, patches: Patches):
+        self.patches = patches
+        self.tex = scene.uv1[scene.indices] * np.array([patches.width, patches.height])  # (T, 3, 2) f64
+        self.corners = scene.positions[scene.indices].astype(np.float64)                   # (T, 3, 3)
+        self.rim = uv_boundary_edges(scene.uv1, scene.indices)                               # (T, 3): 01, 12, 20
+
+    def __call__(self, n: int, rows: np.ndarray | None = None) -> np.ndarray:
+        """(R, n*n, 3) f64 the points of patches `rows` (default: all); n = 1: their positions."""
+        p = self.patches
+        rows = np.arange(len(p)) if rows is None else np.asarray(rows)
+        if n <= 1:
+            return p.position[rows][:, None, :].astype(np.float64)
+        return _kernels.sub_texel_points(rows.astype(np.int64), p.texel_x, p.texel_y, p.triangle, p.position,
+                                         self.tex, self.corners, self.rim, n)

@@ -175,6 +175,21 @@ def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_n
     return out
 
 
+@nb.njit(cache=True, nogil=True)
+def weighted_emission(seen, shares, weights, emission):
+    """(R, 3) f32: per patch, the emission (N, 3) of the patches its D rays see (seen (R * D,)
+    as item_buffer_rows takes it) times each ray's direction weight (D,) and share (R * D,)."""
+    d = weights.shape[0]
+    out = np.zeros((seen.shape[0] // d, 3), np.float32)
+    for i in range(seen.shape[0]):
+        s = seen[i]
+        if s >= 0 and shares[i] != 0.0:
+            w = shares[i] * weights[i % d]
+            for c in range(3):
+                out[i // d, c] += w * emission[s, c]
+    return out
+
+
 @nb.njit(cache=True)
 def interpolate_in_order(G, status, targets, neighbours, computed, interpolated, inside):
     """Fill G (N, 3) in place at every non-computed target, in order, with the mean of its

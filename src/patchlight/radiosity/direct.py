@@ -20,6 +20,7 @@ from .hemicube import concentric_disk
 
 REFINE_GRIDS = (8, 16)     # points per texel axis after the first look, where the points disagree
 REFINE_SPREAD = 0.02       # points disagree when their light spreads over 2 % of the brightest
+POINTS_PER_CHUNK = 8192    # points per task (each casts a shadow ray per light and sun direction)
 
 
 def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
@@ -42,40 +43,45 @@ def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
 
 def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samples: int) -> np.ndarray:
     """(N, K, 3) incident light from a directional light with ray-traced (soft) shadows at each
-    of K points per texel, shadow rays leaving from origins (N, K, 3). The sun's disc
-    directions are dealt out over the points: point k takes directions k, k + K, ..., or one
-    direction each when there are more points than directions."""
+    of K points per texel, shadow rays leaving from origins (N, K, 3), all in one tracer call
+    on the calling thread. The sun's disc directions are dealt out over the points: point k
+    takes directions k, k + K, ..., or one direction each when there are more points than
+    directions."""
     dirs = _sun_directions(light, angle, samples)
     n, k = origins.shape[:2]
-    rays = max(len(dirs), k)
+    j = np.arange(max(len(dirs), k))
+    ray_dirs = dirs[(j + j // len(dirs)) % len(dirs)]  # a Latin square: no column of points shares one
+    cos = np.stack([normals @ d for d in ray_dirs], axis=1)  # (N, J)
+    texel, ray = np.nonzero(cos > 0)
+    blocked = np.ones(cos.shape, bool)
+    blocked[texel, ray] = tracer.occluded_chunk(origins[texel, ray % k], ray_dirs[ray],
+                                                np.full(len(ray), 1e30, np.float32))
+    seen = np.where(blocked, 0.0, cos)
     visible_cos = np.zeros((n, k))
-    count = np.zeros(k)
-    for j in range(rays):
-        d = dirs[(j + j // len(dirs)) % len(dirs)]  # a Latin square: no column of points shares one
-        cos = normals @ d
-        lit = np.flatnonzero(cos > 0)
-        blocked = tracer.occluded(origins[lit, j % k], np.broadcast_to(d, (len(lit), 3)), np.float32(1e30))
-        visible_cos[lit, j % k] += np.where(blocked, 0.0, cos[lit])
-        count[j % k] += 1
+    for i in j:
+        visible_cos[:, i % k] += seen[:, i]
+    count = np.bincount(j % k, minlength=k)
     return (visible_cos / count)[..., None] * light.radiometric / np.pi
 
 
 def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
     """(N, K, 3) incident light from a point or spot light with ray-traced shadows at each of
-    the K points per texel of points (N, K, 3). The light is evaluated at the points
-    themselves; shadow rays leave from `origins` (N, K, 3), the points lifted. The
-    falloff and cone are the runtime models' own (shading.lights, the NumPy twin of the
-    GLSL), so baked and real-time light agree."""
+    the K points per texel of points (N, K, 3), all in one tracer call on the calling thread.
+    The light is evaluated at the points themselves; shadow rays leave from `origins`
+    (N, K, 3), the points lifted. The falloff and cone are the runtime models' own
+    (shading.lights, the NumPy twin of the GLSL), so baked and real-time light agree."""
     lamp = from_scene_light(light, falloff, f"light {light.name or light.kind!r}")
-    value = np.zeros(points.shape[:2] + (3,))
+    strength = np.zeros(points.shape[:2] + (3,))
     for k in range(points.shape[1]):
         L, I = incident_light(lamp, points[:, k])
-        strength = np.maximum(np.einsum("ij,ij->i", normals, L), 0.0)[:, None] * I
-        lit = np.flatnonzero(strength.max(axis=1) > 0)
-        to_lamp = lamp.position - origins[lit, k]
-        d = np.linalg.norm(to_lamp, axis=1)
-        blocked = tracer.occluded(origins[lit, k], to_lamp / d[:, None], (d * (1 - 1e-4)).astype(np.float32))
-        value[lit, k] = np.where(blocked[:, None], 0.0, strength[lit])
+        strength[:, k] = np.maximum(np.einsum("ij,ij->i", normals, L), 0.0)[:, None] * I
+    texel, point = np.nonzero(strength.max(axis=2) > 0)
+    to_lamp = lamp.position - origins[texel, point]
+    d = np.linalg.norm(to_lamp, axis=1)
+    blocked = tracer.occluded_chunk(origins[texel, point], to_lamp / d[:, None],
+                                    (d * (1 - 1e-4)).astype(np.float32))
+    value = np.zeros(points.shape[:2] + (3,))
+    value[texel, point] = np.where(blocked[:, None], 0.0, strength[texel, point])
     return value
 
 
@@ -83,7 +89,8 @@ def point_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tr
                 falloff: str = "inverse-square", sun_angle: float | None = None,
                 sun_samples: int = 16, lift=0.0) -> np.ndarray:
     """(N, K, 3) incident light from every light at each of K points per texel, points
-    (N, K, 3) with unit normals (N, 3) per texel; see `direct_light`."""
+    (N, K, 3) with unit normals (N, 3) per texel; see `direct_light`. Traced on the calling
+    thread (callers spread chunks of texels over the tracer's threads, `_over_chunks`)."""
     points = np.asarray(points, np.float64)
     normals = np.asarray(normals, np.float64)
     lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))[:, None, None]
@@ -98,6 +105,12 @@ def point_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tr
     return total
 
 
+def _over_chunks(tracer: Tracer, fn, rows: np.ndarray, points_per_row: int) -> list:
+    """fn(chunk of rows) over chunks of about POINTS_PER_CHUNK points, on the tracer's threads."""
+    size = max(1, POINTS_PER_CHUNK // max(points_per_row, 1))
+    return tracer.map(fn, [rows[s:s + size] for s in range(0, len(rows), size)])
+
+
 def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
                  falloff: str = "inverse-square", sun_angle: float | None = None,
                  sun_samples: int = 16, lift=0.0) -> np.ndarray:
@@ -109,7 +122,15 @@ def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], t
     points = np.asarray(points, np.float64)
     if points.ndim == 2:
         points = points[:, None, :]
-    return point_light(points, normals, lights, tracer, falloff, sun_angle, sun_samples, lift).mean(axis=1).astype(np.float32)
+    normals = np.asarray(normals, np.float64)
+    lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))
+
+    def chunk(rows):
+        return point_light(points[rows], normals[rows], lights, tracer, falloff, sun_angle, sun_samples,
+                           lift[rows]).mean(axis=1).astype(np.float32)
+
+    parts = _over_chunks(tracer, chunk, np.arange(len(points)), points.shape[1])
+    return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
 
 def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer: Tracer,
@@ -118,21 +139,28 @@ def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer:
     """(N, 3) f32 the mean of the lamps' light over each texel's area, refined where it varies.
 
     points_of(n, rows): (R, n * n, 3) points on an n x n grid over the texels of patches
-    `rows` (atlas.raster.texel_points). Every texel is sampled on a first x first grid; where its
+    `rows` (atlas.raster.TexelPoints). Every texel is sampled on a first x first grid; where its
     points disagree (a shadow edge or a cone edge crosses it), and next to such a texel (an
     edge may slip between the first points), it is sampled again on the next, finer grid,
     and so on while the points still disagree: a hard edge gives the lit fraction of the
-    texel's area, to within the finest grid's resolution."""
+    texel's area, to within the finest grid's resolution. Chunks of texels run on the
+    tracer's threads, points made and traced on each."""
     lift = np.broadcast_to(np.asarray(lift, np.float32), (len(patches),))
     rows = np.arange(len(patches))
     total = np.zeros((len(patches), 3), np.float32)
     for n in (first, *REFINE_GRIDS):
         if len(rows) == 0 or not lights:
             break
-        values = point_light(points_of(n, rows), patches.normal[rows], lights, tracer, falloff, sun_angle,
-                             sun_samples, lift[rows])
-        total[rows] = values.mean(axis=1)
-        rows = _with_neighbours(patches, rows[_disagree(values)]) if n == first else rows[_disagree(values)]
+
+        def chunk(part, n=n):
+            values = point_light(points_of(n, part), patches.normal[part], lights, tracer, falloff, sun_angle,
+                                 sun_samples, lift[part])
+            return values.mean(axis=1), _disagree(values)
+
+        means, disagree = zip(*_over_chunks(tracer, chunk, rows, n * n))
+        total[rows] = np.concatenate(means)
+        rows = rows[np.concatenate(disagree)]
+        rows = _with_neighbours(patches, rows) if n == first else rows
     return total
 
 

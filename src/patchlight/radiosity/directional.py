@@ -119,19 +119,21 @@ def add_direct(sums: DirectionalSums, patches: Patches, lights, per_light: list[
         sums.add_dominant(lit, I, to_light[lit, None])
 
 
-def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.ndarray, points: np.ndarray,
+def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.ndarray, points_of,
                  lift: np.ndarray, tracer, seed: int) -> None:
     """Add the emitters' direct light from the directions it arrives along: the direct stage's
-    next-event samples (points (N, K, 3) per texel), each at full weight (no MIS share: the
-    gather's rays then count no emission, `gather_directions` with B - E)."""
+    next-event samples (points_of(rows): (R, K, 3) points per texel of patches `rows`), each at
+    full weight (no MIS share: the gather's rays then count no emission, `gather_directions`
+    with B - E)."""
     normal = np.asarray(patches.normal, np.float64)
     rows = np.arange(len(patches), dtype=np.int64)
-    k = points.shape[1]
     for start in range(0, len(rows), EMITTER_CHUNK):
         part = rows[start:start + EMITTER_CHUNK]
+        points = points_of(part)
+        k = points.shape[1]
         e = emitters
         origins, dirs, tmax, value = _kernels.emitter_rays(
-            points[part], normal, np.asarray(lift, np.float64), part, e.cdf, e.triangles, e.corners, e.normals,
+            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.triangles, e.corners, e.normals,
             e.two_sided, e.area, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
         live = np.flatnonzero(tmax > 0)
         value[live[tracer.occluded(origins[live], dirs[live], tmax[live])]] = 0.0

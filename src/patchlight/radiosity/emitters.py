@@ -81,10 +81,11 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
                     pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
 
 
-def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: np.ndarray,
+def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points_of,
                   lift: np.ndarray, tracer: Tracer, gather_rays: int, seed: int = 1) -> np.ndarray:
     """(N, 3) f32 incident light from the emitters at every patch, the mean over its texel:
-    points (N, K, 3) spread over each texel, one shadow ray each (K samples per texel); lift
+    points_of(rows) gives (R, K, 3) points spread over the texels of patches `rows`, one
+    shadow ray each (K samples per texel; made chunk by chunk on the tracer's threads); lift
     (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
     e = emitters
     normal = np.asarray(patches.normal, np.float64)
@@ -92,7 +93,7 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
 
     def chunk(rows):
         origins, dirs, tmax, value = _kernels.emitter_rays(
-            points[rows], normal, lift, rows, e.cdf, e.triangles, e.corners, e.normals, e.two_sided, e.area,
+            points_of(rows), normal, lift, rows, e.cdf, e.triangles, e.corners, e.normals, e.two_sided, e.area,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         live = np.flatnonzero(tmax > 0)
         blocked = tracer.occluded_chunk(origins[live], dirs[live], tmax[live])

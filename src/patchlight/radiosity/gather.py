@@ -71,6 +71,7 @@ class Gatherer:
         self.patches, self.tri_uv1, self.two_sided, self.tracer, self.sky = patches, tri_uv1, two_sided, tracer, sky
         self.method, self.seed, self.offset = method, seed, offset
         self.emitters, self.nee_samples = emitters, nee_samples
+        self.emits = bool(np.any(patches.emission > 0))
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
         elif method == "stratified":
@@ -168,7 +169,7 @@ class Gatherer:
 
     def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R, 3) f32 the emitted light the rays count (`emission_shares`), weighted."""
-        d = len(self.weights)
-        shares = self.emission_shares(seen, hits, dirs).reshape(-1, d) * self.weights
-        emitted = self.patches.emission[np.maximum(seen, 0)].reshape(-1, d, 3)
-        return np.einsum("rd,rdc->rc", shares, emitted).astype(np.float32)
+        if not self.emits:
+            return np.zeros((len(seen) // len(self.weights), 3), np.float32)
+        return _kernels.weighted_emission(seen, self.emission_shares(seen, hits, dirs), self.weights,
+                                          self.patches.emission)
