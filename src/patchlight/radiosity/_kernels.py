@@ -176,6 +176,35 @@ def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_n
 
 
 @nb.njit(cache=True, nogil=True)
+def pass_light(direct, gathered, inside, rho, emission):
+    """One pass's light from its gathered light G (N, 3) f32: incident I = D + G (0 at texels
+    `inside` geometry), excident B = rho I + E, and the reflected light B - E that the next
+    pass gathers, each (N, 3) f32, in one sweep."""
+    n = direct.shape[0]
+    incident = np.empty((n, 3), np.float32)
+    excident = np.empty((n, 3), np.float32)
+    reflected = np.empty((n, 3), np.float32)
+    for i in range(n):
+        for c in range(3):
+            light = np.float32(0.0) if inside[i] else direct[i, c] + gathered[i, c]
+            incident[i, c] = light
+            excident[i, c] = rho[i, c] * light + emission[i, c]
+            reflected[i, c] = excident[i, c] - emission[i, c]
+    return incident, excident, reflected
+
+
+@nb.njit(cache=True, nogil=True)
+def largest_relative_change(current, previous, floor):
+    """max |current - previous| / max(current, floor) over (N, 3) f32 arrays, in f32."""
+    largest = np.float32(0.0)
+    for i in range(current.shape[0]):
+        for c in range(3):
+            change = abs(current[i, c] - previous[i, c]) / max(current[i, c], floor)
+            largest = max(largest, change)
+    return largest
+
+
+@nb.njit(cache=True, nogil=True)
 def weighted_emission(seen, shares, weights, emission):
     """(R, 3) f32: per patch, the emission (N, 3) of the patches its D rays see (seen (R * D,)
     as item_buffer_rows takes it) times each ray's direction weight (D,) and share (R * D,)."""

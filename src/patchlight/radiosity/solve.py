@@ -114,13 +114,12 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass."""
     inside = status == adaptive.INSIDE
     B = emission.copy() if B0 is None else B0
+    reflected = B - emission
     previous, changes = None, []
     I = G = np.zeros_like(direct)
     for k in range(1, passes + 1):
-        G = gathered_light(ff, B - emission, status, order)
-        I = direct + G
-        I[inside] = 0.0
-        B = rho * I + emission
+        G = gathered_light(ff, reflected, status, order)
+        I, B, reflected = _kernels.pass_light(direct, G, inside, rho, emission)
         changes.append(1.0 if previous is None else relative_change(I, previous))
         if on_pass is not None:
             on_pass(k, changes[-1], I)
@@ -151,4 +150,4 @@ def relative_change(current: np.ndarray, previous: np.ndarray) -> float:
     """Largest per-texel change |I_k - I_k-1| / I_k, over texels brighter than a hundredth of
     the mean (so that nearly black texels' noise does not decide)."""
     floor = 1e-2 * float(current.mean()) + 1e-30
-    return float((np.abs(current - previous) / np.maximum(current, floor)).max())
+    return float(_kernels.largest_relative_change(current, previous, np.float32(floor)))

@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba as nb
 import numpy as np
 
 from .model import check_light_values
@@ -26,6 +27,24 @@ def _rgb(value) -> np.ndarray:
 def _shortest(rgb) -> list[float]:
     """float32 values as the shortest decimals that read back to them (0.4, not 0.4000000059604645)."""
     return [float(str(np.float32(v))) for v in rgb]
+
+
+@nb.njit(cache=True, nogil=True)
+def _colour_radiance(gradient, colors, d):
+    """Sky.radiance of a uniform sky (colors[0]) or, when `gradient`, of the gradient of the
+    colors (3, 3) zenith, horizon, ground, in float32 along d (N, 3) f32."""
+    out = np.empty((d.shape[0], 3), np.float32)
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(d.shape[0]):
+        y = d[i, 1]
+        for c in range(3):
+            if not gradient:
+                out[i, c] = colors[0, c]
+            elif y >= zero:
+                out[i, c] = colors[1, c] + (colors[0, c] - colors[1, c]) * min(max(y, zero), one)
+            else:
+                out[i, c] = colors[2, c]
+    return out
 
 
 @dataclass
@@ -63,15 +82,10 @@ class Sky:
         return not np.any(self.colors > 0)
 
     def radiance(self, directions: np.ndarray) -> np.ndarray:
-        """(N, 3) radiance seen along unit directions (N, 3)."""
-        d = np.asarray(directions, np.float32)
-        if self.kind == "uniform":
-            return np.broadcast_to(self.colors[0], (len(d), 3)).copy()
-        if self.kind == "gradient":
-            y = d[:, 1:2]
-            zenith, horizon, ground = self.colors
-            above = horizon + (zenith - horizon) * np.clip(y, 0, 1)
-            return np.where(y >= 0, above, ground).astype(np.float32)
+        """(N, 3) f32 radiance seen along unit directions (N, 3)."""
+        d = np.ascontiguousarray(directions, np.float32).reshape(-1, 3)
+        if self.kind != "image":  # a nogil kernel: the gather's threads call it side by side
+            return _colour_radiance(self.kind == "gradient", np.ascontiguousarray(self.colors, np.float32), d)
         h, w, _ = self.image.shape
         u = 0.5 + np.arctan2(d[:, 0], -d[:, 2]) / (2 * np.pi)
         v = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi
