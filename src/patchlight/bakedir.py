@@ -5,16 +5,17 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
     lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0; its alpha channel the
                     validity: 1 for texels with light of their own (a patch on a visible
                     surface, computed or interpolated), 0 inside geometry and in the padding
-    scene.glb       the scene with its lightmap UVs in TEXCOORD_1 and the RGBM lightmap
-    lightmap_sh.exr or lightmap_dir.exr
-                    the directional lightmap, if the bake made one (shading.directional:
-                    layers L0, L1x, L1y, L1z of RGB, or the dominant direction as RGB)
+    scene.glb       the scene with its lightmap UVs in TEXCOORD_1, the lightmap (MOZ_lightmap)
+                    and the directional lightmap, if any (PATCHLIGHT_lightmap_directional;
+                    patchlight.scene.gltf)
     lightmap.png    the lightmap exposed for display (sRGB)
     adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
     texels.npz      every pass and the per-texel arrays the viewer reads (Texels below)
     pass_NN.png     the lightmap after each pass (--save-passes)
     lightmap_sh.exr or lightmap_dir.exr
-                    the directional lightmap, if the bake made one (--directional)
+                    the directional lightmap, if the bake made one (--directional;
+                    shading.directional: layers L0, L1x, L1y, L1z of RGB, or the dominant
+                    direction as RGB)
     bake.json       the summary: settings, sky, statistics, the list of files
 
 written as one set: staged, then swapped in whole (patchlight.outputs.staged_output), so a
@@ -168,7 +169,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     stale globs include STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels
     from .imaging.io import write_bytes, write_exr, write_json, write_png
-    from .imaging.lightmap import encode_lightmap
+    from .imaging.lightmap import encode_directional, encode_lightmap
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
@@ -191,7 +192,10 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     write_bytes(staging / TEXELS, texels_of(result).to_bytes())
     for name, pixels in images.items():
         write_png(staging / name, pixels)
-    save_baked_glb(result.scene, staging / SCENE, encode_lightmap(result.lightmap), meta, folder=out_dir)
+    lightmap = encode_lightmap(result.lightmap)
+    directional = None if result.directional is None else encode_directional(
+        result.directional.mode, dict(zip(_layers(result.directional.mode), result.directional.maps)), lightmap.scale)
+    save_baked_glb(result.scene, staging / SCENE, lightmap, meta, folder=out_dir, directional=directional)
     write_json(staging / MARKER, summary)
     return summary
 

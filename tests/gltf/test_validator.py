@@ -1,6 +1,7 @@
 """Every glTF the project writes passes the Khronos glTF validator (npm gltf-validator) with
 zero errors: bakes of the built-in scenes (flattened writer), of a glTF file (the writer that
-keeps the file) and of a baked scene.glb again, and vertexbake's output from either. In a
+keeps the file) and of a baked scene.glb again, directional bakes (PATCHLIGHT_lightmap_directional
+and its EXR textures) of either, and vertexbake's output from either. In a
 bake, the lightmap texture and every TEXCOORD_1 are used in the validator's eyes (through the
 occlusionTexture stand-in at strength 0), and a material's own occlusion map is kept."""
 from __future__ import annotations
@@ -39,6 +40,10 @@ def written(tmp_path_factory) -> dict:
         files[f"bake {name}"] = root / name / "scene.glb"
     assert main(["bake", str(files["bake room"]), "-o", str(root / "rebaked"), "--resolution", "64", *QUICK]) == 0
     files["bake of a baked scene.glb"] = root / "rebaked" / "scene.glb"
+    for name, scene, mode in (("room directional sh", "room", "sh"), ("gltf directional dominant", source, "dominant"),
+                              ("of a directional bake, directional sh", root / "room directional sh" / "scene.glb", "sh")):
+        assert main(["bake", str(scene), "-o", str(root / name), "--resolution", "64", "--directional", mode, *QUICK]) == 0
+        files[f"bake {name}"] = root / name / "scene.glb"
     for name, target in (("of a bake", root / "room"), ("of a built-in", "cornell"), ("of a glTF", source)):
         out = root / f"vertex {name}.glb"
         assert main(["vertexbake", str(target), "-o", str(out), "--quiet"]) == 0
@@ -133,3 +138,22 @@ def test_a_material_keeps_its_own_occlusion_map(written):
 def test_vertexbake_of_a_bake_drops_the_occlusion_stand_in(written):
     doc = document(written["vertexbake of a bake"])
     assert all("occlusionTexture" not in m for m in doc["materials"])
+
+
+def test_directional_bakes_reference_their_maps_from_every_lit_material(written):
+    for name, layers in (("bake room directional sh", ["L0", "L1x", "L1y", "L1z"]),
+                         ("bake gltf directional dominant", [""]),
+                         ("bake of a directional bake, directional sh", ["L0", "L1x", "L1y", "L1z"])):
+        doc = document(written[name])
+        assert {"PATCHLIGHT_lightmap_directional", "PATCHLIGHT_texture_exr"} <= set(doc["extensionsUsed"]), name
+        assert "PATCHLIGHT_lightmap_directional" not in doc.get("extensionsRequired", []), name
+        lit = {p["material"] for mesh in doc["meshes"] for p in mesh["primitives"] if "TEXCOORD_1" in p["attributes"]}
+        for material in lit:
+            reference = doc["materials"][material]["extensions"]["PATCHLIGHT_lightmap_directional"]
+            assert reference["mode"] == ("sh" if len(layers) == 4 else "dominant"), name
+            textures = [doc["textures"][m["index"]] for m in reference["maps"]]
+            assert [t["name"] for t in textures] == [f"patchlight_directional_{x}".rstrip("_") for x in layers], name
+            images = [doc["images"][t["extensions"]["PATCHLIGHT_texture_exr"]["source"]] for t in textures]
+            assert all(i["mimeType"] == "image/x-exr" and "source" not in t for i, t in zip(images, textures)), name
+    rebaked = document(written["bake of a directional bake, directional sh"])  # the earlier maps' textures reused
+    assert sum(t.get("name", "").startswith("patchlight_directional") for t in rebaked["textures"]) == 4

@@ -4,8 +4,15 @@ materials; the viewer's scene.glb view), looks like `patchlight render --model l
 the same camera: within 2/255 on every smooth pixel (one whose 3 x 3 neighbourhood in the CPU
 picture spans at most 2/255 and lies wholly on the surface), and no material samples the
 occlusionTexture that only marks the lightmap used (strength 0). The room's lights are marked
-baked, so the plugin turns them off; baked with --keep-lights they stay on in three.js."""
+baked, so the plugin turns them off; baked with --keep-lights they stay on in three.js.
+
+A directional bake (sh and dominant) of a room whose materials carry a normal map of smooth
+bumps: the plugin patches three.js's material so that its picture matches `patchlight render
+--model lightmap-directional --normal-map` within 2/255 on every smooth pixel, and the bumps
+show (the picture differs from the plain lightmap's where the normal map tilts)."""
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
@@ -13,6 +20,10 @@ from browser_support import three_missing
 
 from patchlight.cli.main import main
 from patchlight.imaging.io import read_image
+from patchlight.scene import load_scene
+from patchlight.scene.gltf import save_baked_glb
+from patchlight.scene.gltf.container import pack_glb, split_glb
+from patchlight.shading.surface import vertex_tangents
 from patchlight.render import Renderer
 from patchlight.inputs import open_input
 from patchlight.viewer.app import make_server
@@ -40,22 +51,43 @@ def neighbourhood_span(picture: np.ndarray) -> np.ndarray:
     return span
 
 
-def cpu_and_three(browser, bake_dir, tmp_path) -> tuple[np.ndarray, np.ndarray, dict]:
+def cpu_render(bake_dir, camera: dict, out, *options) -> np.ndarray:
+    """(H, W, 3) int32 0..255: `patchlight render BAKE_DIR` from `camera` with `options`."""
+    view = [",".join(map(str, camera["eye"])), ",".join(map(str, camera["target"])), str(camera["fov"])]
+    assert main(["render", str(bake_dir), "--camera", *view, "--size", f"{SIZE}x{SIZE}",
+                 "--exposure", str(EXPOSURE), "-o", str(out), *options]) == 0
+    return np.round(read_image(out) * 255).astype(np.int32)
+
+
+def cpu_and_three(browser, bake_dir, tmp_path, *options) -> tuple[np.ndarray, np.ndarray, dict]:
     """(CPU picture (H, W, 3), three.js picture (H, W, 4), the three.js materials' maps) of the
-    bake from its default camera, int32 0..255: `patchlight render --model lightmap`, and the
-    viewer's scene.glb view."""
+    bake from its default camera, int32 0..255: `patchlight render --model lightmap` (or the
+    render `options`), and the viewer's scene.glb view."""
     target, _ = open_input(str(bake_dir)).target()
     c = Renderer(target).default_camera().to_json()
-    cpu_png = tmp_path / "cpu.png"
-    view = [",".join(map(str, c["eye"])), ",".join(map(str, c["target"])), str(c["fov"])]
-    assert main(["render", str(bake_dir), "--model", "lightmap", "--camera", *view, "--size", f"{SIZE}x{SIZE}",
-                 "--exposure", str(EXPOSURE), "-o", str(cpu_png)]) == 0
-    cpu = np.round(read_image(cpu_png) * 255).astype(np.int32)
+    cpu = cpu_render(bake_dir, c, tmp_path / "cpu.png", *(options or ("--model", "lightmap")))
     spec = {"name": "engine", "model": "lightmap", "engine": True, "camera": c, "width": SIZE, "height": SIZE,
             "exposure": EXPOSURE}
     with make_server(target, target_settings(target, model="lightmap"), exposure=EXPOSURE) as server:
         pictures, log = browser.cases(server.url, [spec], tmp_path)
     return cpu, pictures["engine"].astype(np.int32), log["engine"]
+
+
+def smooth_difference(cpu: np.ndarray, gpu: np.ndarray, what: str, least: float = 0.2) -> int:
+    """The largest |gpu - cpu| (/255) over the smooth pixels (module docstring), which must be
+    at least the share `least` of the picture; prints the figures."""
+    covered = gpu[..., 3] > 0
+    inside = np.zeros_like(covered)
+    inside[1:-1, 1:-1] = np.stack([covered[1 + dy:SIZE - 1 + dy, 1 + dx:SIZE - 1 + dx]
+                                   for dy in (-1, 0, 1) for dx in (-1, 0, 1)]).all(axis=0)
+    smooth = inside & (neighbourhood_span(cpu) <= SMOOTH)
+    assert smooth.mean() > least  # a good part of the picture is compared
+    diff = np.abs(gpu[..., :3] - cpu)[smooth]
+    every = np.abs(gpu[..., :3] - cpu)[covered]
+    print(f"{what}: {smooth.sum()} smooth pixels ({smooth.mean():.0%}): mean {diff.mean():.3f}/255, "
+          f"max {diff.max()}/255; all {covered.sum()} covered: mean {every.mean():.3f}/255, "
+          f"p99 {np.percentile(every, 99):.1f}/255")
+    return int(diff.max())
 
 
 def test_scene_glb_through_the_plugin_matches_the_cpu_lightmap_render(browser, tmp_path_factory, tmp_path):
@@ -64,18 +96,7 @@ def test_scene_glb_through_the_plugin_matches_the_cpu_lightmap_render(browser, t
     cpu, gpu, materials = cpu_and_three(browser, bake(tmp_path_factory), tmp_path)
     # every material shows the lightmap; its occlusionTexture stand-in (strength 0) is never sampled
     assert materials and all(m["lightMap"] and not m["aoMap"] for m in materials.values()), materials
-    covered = gpu[..., 3] > 0
-    inside = np.zeros_like(covered)
-    inside[1:-1, 1:-1] = np.stack([covered[1 + dy:SIZE - 1 + dy, 1 + dx:SIZE - 1 + dx]
-                                   for dy in (-1, 0, 1) for dx in (-1, 0, 1)]).all(axis=0)
-    smooth = inside & (neighbourhood_span(cpu) <= SMOOTH)
-    assert smooth.mean() > 0.2  # a good part of the picture is compared
-    diff = np.abs(gpu[..., :3] - cpu)[smooth]
-    every = np.abs(gpu[..., :3] - cpu)[covered]
-    print(f"plugin vs CPU: {smooth.sum()} smooth pixels ({smooth.mean():.0%}): mean {diff.mean():.3f}/255, "
-          f"max {diff.max()}/255; all {covered.sum()} covered: mean {every.mean():.3f}/255, "
-          f"p99 {np.percentile(every, 99):.1f}/255")
-    assert diff.max() <= 2
+    assert smooth_difference(cpu, gpu, "plugin vs CPU") <= 2
 
 
 def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_path):
@@ -86,3 +107,48 @@ def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_
     cpu, gpu, _ = cpu_and_three(browser, bake(tmp_path_factory, "--keep-lights"), tmp_path)
     covered = gpu[..., 3] > 0
     assert (gpu[..., :3] - cpu)[covered].mean() > 10
+
+
+def bumpy_room(folder) -> str:
+    """The room as a glTF file whose materials carry a normal map of smooth bumps (a height
+    0.1 sin(2 pi u) sin(2 pi v) over TEXCOORD_0 in metres, tilting the normal by up to 32
+    degrees), with its tangents (TANGENT), so three.js and the CPU build the same frame."""
+    scene = load_scene("room")
+    t = 2 * np.pi * (np.arange(64) + 0.5) / 64
+    u, v = np.meshgrid(t, t)
+    height = 0.1 * 2 * np.pi  # the slope's amplitude
+    n = np.stack([-height * np.cos(u) * np.sin(v), height * np.sin(u) * np.cos(v), np.ones_like(u)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    for material in scene.materials:
+        material.normal_texture = (0.5 + 0.5 * n).astype(np.float32)
+    scene.tangents = vertex_tangents(scene.positions, scene.normals, scene.uv0, scene.indices)
+    path = save_baked_glb(scene, folder / "bumpy_room.glb")
+    text, blob = split_glb(path.read_bytes(), path)
+    doc = json.loads(text)  # bilinear without mipmaps, as the CPU renderer samples textures
+    doc["samplers"] = [{"magFilter": 9729, "minFilter": 9729}]
+    for texture in doc["textures"]:
+        texture["sampler"] = 0
+    path.write_bytes(pack_glb(json.dumps(doc).encode(), blob))
+    return str(path)
+
+
+@pytest.mark.parametrize("mode", ["sh", "dominant"])
+def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_render(browser, tmp_path_factory,
+                                                                                  tmp_path, mode):
+    if three_missing():
+        pytest.skip(three_missing())
+    folder = tmp_path_factory.mktemp("bumpy")
+    out = folder / mode
+    assert main(["bake", bumpy_room(folder), "-o", str(out), "--resolution", "128", "--rays", "64",
+                 "--directional", mode, "--quiet"]) == 0
+    cpu, gpu, materials = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map")
+    assert materials and all(m["lightMap"] and m["normalMap"] for m in materials.values()), materials
+    assert smooth_difference(cpu, gpu, f"plugin vs CPU, directional {mode}", least=0.15) <= 2  # bumps: fewer smooth
+    # the bumps show: the plain lightmap (no direction, no normal map) differs where the map tilts
+    camera = Renderer(open_input(str(out)).target()[0]).default_camera().to_json()
+    plain = cpu_render(out, camera, tmp_path / "plain.png", "--model", "lightmap")
+    covered = gpu[..., 3] > 0
+    bumps = np.abs(gpu[..., :3] - plain).max(axis=-1)[covered]
+    print(f"directional {mode} vs the plain lightmap: {np.mean(bumps > 4):.0%} of pixels differ by more than "
+          f"4/255, mean {bumps.mean():.1f}/255")
+    assert np.mean(bumps > 4) > 0.1 and bumps.mean() > 2

@@ -8,6 +8,7 @@ every reader turns a missing, unreadable or corrupt file into `PatchlightError("
 | function            | reads / writes                         | array                          |
 |---------------------|----------------------------------------|--------------------------------|
 | write_exr, read_exr | OpenEXR, float32 R, G, B channels      | (H, W, 3) float32              |
+| encode_exr          | the bytes of an EXR, float32 or half   | (H, W, 3) float32              |
 | read_exr_alpha      | OpenEXR, its A channel if it has one   | (H, W) float32, or None        |
 | write_png           | PNG through Pillow                     | (H, W), (H, W, 3|4) uint8      |
 | read_image          | PNG, JPEG (anything Pillow decodes)    | (H, W, C) float32 in [0, 1]    |
@@ -162,26 +163,43 @@ def write_exr_layers(path, layers: dict[str, np.ndarray], metadata: dict[str, st
                      alpha: np.ndarray | None = None) -> None:
     """Write (H, W, 3) linear RGB layers as one float32 EXR: layer "" as R, G, B, layer "L0" as
     L0.R, L0.G, L0.B (OpenEXR's layer naming); otherwise as `write_exr`."""
+    exr = _exr_file(layers, metadata, alpha, np.float32, str(path))
+    with atomic_path(path) as tmp:
+        try:
+            exr.write(str(tmp))
+        except RuntimeError as exc:
+            raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
+
+
+def encode_exr(rgb: np.ndarray, half: bool = False) -> bytes:
+    """The bytes of a ZIP-compressed EXR of (H, W, 3) linear RGB (row 0 the top row), float32
+    or, with `half`, half floats (11-bit mantissa: 2^-11 relative precision, up to 65504)."""
+    exr = _exr_file({"": rgb}, None, None, np.float16 if half else np.float32, "encode_exr")
+    buffer = io.BytesIO()
+    exr.write(buffer)
+    return buffer.getvalue()
+
+
+def _exr_file(layers: dict[str, np.ndarray], metadata: dict[str, str] | None, alpha: np.ndarray | None,
+              dtype, where: str) -> OpenEXR.File:
+    """An OpenEXR.File of the layers (see write_exr_layers), its channels of `dtype`; ValueError
+    for images of the wrong shape, values that are not finite or do not fit the type."""
     channels = {}
     for name, rgb in layers.items():
         pixels = np.asarray(rgb, np.float32)
         if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
             raise ValueError(f"write_exr wants (H, W, 3) images, got shape {pixels.shape}")
-        check_finite(pixels, f"{path} layer {name or 'RGB'}")
+        check_finite(pixels.astype(dtype), f"{where} layer {name or 'RGB'}")
         for c, letter in enumerate("RGB"):
-            channels[f"{name}.{letter}" if name else letter] = np.ascontiguousarray(pixels[..., c])
+            channels[f"{name}.{letter}" if name else letter] = np.ascontiguousarray(pixels[..., c], dtype)
     if alpha is not None:
         if np.shape(alpha) != pixels.shape[:2]:
             raise ValueError(f"write_exr: alpha {np.shape(alpha)} does not match the image's {pixels.shape[:2]}")
-        channels["A"] = np.ascontiguousarray(alpha, np.float32)
+        channels["A"] = np.ascontiguousarray(alpha, dtype)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
               ORIENTATION_KEY: ORIENTATION}
     header.update({str(k): str(v) for k, v in (metadata or {}).items()})
-    with atomic_path(path) as tmp:
-        try:
-            OpenEXR.File(header, channels).write(str(tmp))
-        except RuntimeError as exc:
-            raise PatchlightError(f"{path}: cannot write EXR ({exc})") from exc
+    return OpenEXR.File(header, channels)
 
 
 def read_exr(path) -> np.ndarray:

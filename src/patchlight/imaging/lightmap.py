@@ -8,6 +8,13 @@
 
 scale is the lightmap's peak, so the PNG never clips; a renderer multiplies the texel by
 scale (and by pi for three.js, whose lightMap is irradiance: MOZ_lightmap's intensity).
+
+A directional lightmap (`encode_directional`) goes beside it as one half-float EXR per layer
+(L0, L1x, L1y, L1z of L1 spherical harmonics, or the dominant direction x its share): signed
+values, which neither .hdr nor PNG hold, 2^-11 relative precision, decoded by three.js's own
+EXRLoader (`bench/bench_directional_encoding.py` measured the candidates). The SH layers are
+divided by the lightmap's scale (so they lie near 1, far inside half's range); the dominant
+direction is stored as it is (scale 1).
 """
 from __future__ import annotations
 
@@ -15,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .io import encode_hdr, encode_png
+from .io import encode_exr, encode_hdr, encode_png
 
 MIN_SCALE = 1e-6  # a black lightmap still gets a positive scale
 
@@ -36,3 +43,22 @@ def encode_lightmap(lightmap: np.ndarray) -> EncodedLightmap:
     relative = values / scale
     png = encode_png(np.round(np.clip(relative, 0.0, 1.0) * 255.0).astype(np.uint8))
     return EncodedLightmap(encode_hdr(relative.astype(np.float32)), png, scale)
+
+
+@dataclass(frozen=True)
+class EncodedDirectional:
+    """mode "sh" or "dominant"; layers: their names ("L0", ... or "" for the dominant direction);
+    exr: one half-float EXR per layer holding the values / scale, row 0 at v = 0."""
+
+    mode: str
+    layers: tuple[str, ...]
+    exr: tuple[bytes, ...]
+    scale: float
+
+
+def encode_directional(mode: str, layers: dict[str, np.ndarray], scale: float) -> EncodedDirectional:
+    """The EXRs of a directional lightmap's (H, W, 3) layers (module docstring); `scale`: the
+    lightmap's (EncodedLightmap.scale), which divides the SH layers."""
+    divisor = scale if mode == "sh" else 1.0
+    return EncodedDirectional(mode, tuple(layers), tuple(encode_exr(np.asarray(values, np.float64) / divisor, half=True)
+                                                         for values in layers.values()), divisor)

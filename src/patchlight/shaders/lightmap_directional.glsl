@@ -3,6 +3,8 @@
 // selects L1 spherical harmonics (directional_map0..3 = L0, L1x, L1y, L1z per colour
 // channel), else directional_map0 holds the dominant direction times its share. Either way
 // the plain lightmap I is kept at the surface's own normal N0 and redistributed elsewhere.
+// Needs blinn_phong.glsl before it. The three.js plugin (viewer/static/patchlight_gltf.js)
+// puts these two chunks into three.js's own materials and calls directional_light().
 uniform sampler2D directional_map0;
 uniform sampler2D directional_map1;
 uniform sampler2D directional_map2;

@@ -42,11 +42,11 @@ GLB_ROUTE = "/scene/scene.glb"  # a bake's glTF, which the page loads through th
 
 
 def find_three() -> Path:
-    """The three.js files: bundled in the package (a built install), else node_modules/three
-    from $PATCHLIGHT_NODE_MODULES or the nearest node_modules above this package or the
-    working directory (a checkout after `npm ci`)."""
+    """The three.js files: bundled in the package (a built install, holding every file of the
+    list), else node_modules/three from $PATCHLIGHT_NODE_MODULES or the nearest node_modules
+    above this package or the working directory (a checkout after `npm ci`)."""
     bundled = Path(__file__).resolve().parent / BUNDLED
-    if (bundled / THREE_FILES[0]).is_file():
+    if all((bundled / name).is_file() for name in THREE_FILES):
         return bundled
     candidates = []
     if os.environ.get("PATCHLIGHT_NODE_MODULES"):
@@ -54,7 +54,7 @@ def find_three() -> Path:
     for start in (Path(__file__).resolve(), Path.cwd().resolve()):
         candidates += [parent / "node_modules" for parent in start.parents]
     for modules in candidates:
-        if (modules / "three" / THREE_FILES[0]).is_file():
+        if all((modules / "three" / name).is_file() for name in THREE_FILES):
             return (modules / "three").resolve()
     raise PatchlightError("three.js not found: this patchlight was installed without its viewer files; "
                           "reinstall it with `pip install .` (or run `npm ci` in the checkout)")

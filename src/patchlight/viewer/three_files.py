@@ -8,6 +8,8 @@ THREE_FILES = (
     "examples/jsm/controls/OrbitControls.js",
     "examples/jsm/loaders/GLTFLoader.js",
     "examples/jsm/loaders/HDRLoader.js",
+    "examples/jsm/loaders/EXRLoader.js",
+    "examples/jsm/libs/fflate.module.js",  # EXRLoader's inflate (MIT, its licence in its header)
     "examples/jsm/utils/BufferGeometryUtils.js",
     "examples/jsm/utils/SkeletonUtils.js",
 )

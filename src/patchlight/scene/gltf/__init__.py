@@ -91,6 +91,22 @@ data, no sRGB, no mipmaps, v = 0 at the top.  The root `extras` describe it:
     {"patchlight": {"lightmap": {"texture": <texture index>, "texCoord": 1, "scale": <float>,
                                  "intensity": pi x scale, ...the caller's metadata}}}
 
+A directional bake (`directional`: `imaging.lightmap.EncodedDirectional`) adds, on the same
+materials (listed in extensionsUsed, never required: a viewer without it shows the plain
+lightmap),
+
+    "extensions": {"PATCHLIGHT_lightmap_directional": {"mode": "sh" | "dominant",
+                   "maps": [{"index": <texture>, "texCoord": 1}, ...], "scale": <float>}}
+
+maps: sh: L0, L1x, L1y, L1z (the L1 spherical-harmonic coefficients of the incident radiance
+per colour channel, world axes, `shading.directional`); dominant: the dominant direction
+times its share. Texel x scale is the bake's value (`lightmap_sh.exr` / `lightmap_dir.exr`);
+scale is the lightmap's for sh, 1 for dominant. Each texture ("patchlight_directional_L0",
+..., or "patchlight_directional"; re-baking reuses them) has no core source, only
+`"extensions": {"PATCHLIGHT_texture_exr": {"source": <image>}}`, a half-float ZIP EXR
+(mimeType image/x-exr, 2^-11 relative precision, row 0 at v = 0) that three.js's EXRLoader
+decodes; the lightmap's sampler.
+
 save_baked_glb's `extras` go into the root extras.patchlight too (vertexbake's colorScale).
 """
 from __future__ import annotations
@@ -100,7 +116,7 @@ from pathlib import Path
 
 from ...errors import PatchlightError
 from ...imaging.io import atomic_path
-from ...imaging.lightmap import EncodedLightmap
+from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene
 from .baked import lightmap_description
 from .container import outside_files_allowed, outside_reason
@@ -113,11 +129,12 @@ __all__ = ["load_gltf", "outside_files_allowed", "outside_reason", "save_baked_g
 
 def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | None = None,
                    lightmap_meta: dict | None = None, unlit: bool = False, folder=None,
-                   extras: dict | None = None) -> Path:
+                   extras: dict | None = None, directional: EncodedDirectional | None = None) -> Path:
     """Write `scene` (and its lightmap, if given) as one .glb, atomically; returns the path.
 
     lightmap_meta: JSON-able dict stored with the lightmap's description in the root extras.
-    extras: JSON-able dict merged into the root extras.patchlight.  Layout: see the module docstring.
+    extras: JSON-able dict merged into the root extras.patchlight.  directional: the directional
+    lightmap beside the lightmap (needs `lightmap`).  Layout: see the module docstring.
     unlit: mark every material KHR_materials_unlit (used, not required): the light is baked
     into COLOR_0, so viewers must not light it again. folder: the directory the file will end
     up in, when it is written elsewhere first (a staging directory): an image sky's path is
@@ -130,17 +147,19 @@ def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | None = None,
         if scene.uv1 is None:
             raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
         lightmap_description(lightmap, lightmap_meta or {})  # refuse bad input before any work
+    elif directional is not None:
+        raise ValueError("save_baked_glb: a directional lightmap needs the lightmap")
     folder = Path(path).parent if folder is None else Path(folder)
     source, glb = SourceWriter.open(scene), None
     if isinstance(source, SourceWriter):
         try:
-            glb = source.write(folder, lightmap, lightmap_meta or {}, unlit, extras or {})
+            glb = source.write(folder, lightmap, lightmap_meta or {}, unlit, extras or {}, directional)
         except (PatchlightError, ValueError) as exc:
             source = f"its file could not be rewritten ({exc})"
     if glb is None:
         if source is not None:
             warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
-        glb = flattened_glb(scene, folder, lightmap, lightmap_meta or {}, unlit, extras or {})
+        glb = flattened_glb(scene, folder, lightmap, lightmap_meta or {}, unlit, extras or {}, directional)
     with atomic_path(path) as tmp:
         tmp.write_bytes(glb)
     return Path(path)

@@ -1,12 +1,13 @@
-"""What both writers put into a baked .glb: the lightmap textures and their description
-(the package docstring, "Export"), the unlit marker of vertex-baked light."""
+"""What both writers put into a baked .glb: the lightmap textures and their description, the
+directional lightmap's (the package docstring, "Export"), the unlit marker of vertex-baked
+light."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from ...imaging.lightmap import EncodedLightmap
+from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from .container import CLAMP_TO_EDGE, LINEAR_FILTER
 
 UNLIT = "KHR_materials_unlit"  # vertex-baked light: viewers show base colour x COLOR_0 as it is
@@ -14,6 +15,10 @@ MOZ_LIGHTMAP, MOZ_RGBE = "MOZ_lightmap", "MOZ_texture_rgbe"  # the lightmap, and
 HDR_MIME = "image/vnd.radiance"
 LIGHTMAP_NAME = "patchlight_lightmap"
 LIGHTMAP_HDR_NAME = "patchlight_lightmap_hdr"
+DIRECTIONAL = "PATCHLIGHT_lightmap_directional"  # a material's directional lightmap (package docstring)
+EXR = "PATCHLIGHT_texture_exr"  # a texture's EXR image (its source: none a stock viewer could decode)
+EXR_MIME = "image/x-exr"
+DIRECTIONAL_NAME = "patchlight_directional"  # + "_" + layer: the directional textures and images
 LIGHTMAP_SAMPLER = {"magFilter": LINEAR_FILTER, "minFilter": LINEAR_FILTER,
                      "wrapS": CLAMP_TO_EDGE, "wrapT": CLAMP_TO_EDGE}
 
@@ -52,6 +57,17 @@ def is_lightmap_occlusion(occlusion, textures: list) -> bool:
     index = occlusion.get("index") if isinstance(occlusion, dict) else None
     return (isinstance(index, int) and 0 <= index < len(textures) and isinstance(textures[index], dict)
             and textures[index].get("name") == LIGHTMAP_NAME)
+
+
+def directional_name(layer: str) -> str:
+    """The name of a directional layer's texture and image ("" : the dominant direction)."""
+    return f"{DIRECTIONAL_NAME}_{layer}" if layer else DIRECTIONAL_NAME
+
+
+def directional_reference(textures: list[int], directional: EncodedDirectional) -> dict:
+    """A material's PATCHLIGHT_lightmap_directional extension: the layers' textures in order."""
+    return {"mode": directional.mode, "maps": [{"index": t, "texCoord": 1} for t in textures],
+            "scale": directional.scale}
 
 
 def jsonable(value):

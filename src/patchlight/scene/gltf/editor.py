@@ -10,7 +10,7 @@ import numpy as np
 from ...errors import PatchlightError
 from ...imaging.io import check_finite, json_text
 from .container import ARRAY_BUFFER, Document, ELEMENT_ARRAY_BUFFER, FLOAT, TYPE_WIDTHS, pack_glb
-from .baked import MOZ_LIGHTMAP, MOZ_RGBE
+from .baked import DIRECTIONAL, EXR, MOZ_LIGHTMAP, MOZ_RGBE
 
 class GlbEditor:
     """raw: the document's JSON (edited in place); importer: the same file as a Document (its
@@ -173,7 +173,7 @@ class GlbEditor:
 
 
 _KNOWN_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_mesh_quantization", "KHR_texture_basisu",
-                     MOZ_LIGHTMAP, MOZ_RGBE,
+                     MOZ_LIGHTMAP, MOZ_RGBE, DIRECTIONAL, EXR,
                      "EXT_texture_webp", "EXT_texture_avif", "KHR_xmp_json_ld", "EXT_mesh_gpu_instancing",
                      "KHR_draco_mesh_compression", "KHR_animation_pointer"}
 

@@ -11,13 +11,14 @@ import pygltflib as gl
 
 from ...imaging.color import linear_to_srgb
 from ...imaging.io import check_finite, encode_png
-from ...imaging.lightmap import EncodedLightmap
+from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Light, Material, Scene
 from .container import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT, LUMENS_PER_WATT, TRIANGLES, UINT, float_list
+from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
 from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
 
 def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool,
-                   extras: dict) -> bytes:
+                  extras: dict, directional: EncodedDirectional | None = None) -> bytes:
     """The world-space soup as one .glb: one identity node and mesh per material."""
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
@@ -31,6 +32,8 @@ def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | None, 
     writer.doc.extras = {"patchlight": jsonable(extras)} if extras else {}
     if lightmap is not None:
         writer.lightmap(lightmap, meta)
+        if directional is not None:
+            writer.directional(directional, writer.doc.textures[-1].sampler)
     return writer.finish()
 
 
@@ -175,6 +178,21 @@ class _GlbWriter:
             self.use_extension(name)
         description["texture"] = texture
         self.doc.extras = {"patchlight": {**self.doc.extras.get("patchlight", {}), "lightmap": description}}
+
+    def directional(self, directional: EncodedDirectional, sampler: int) -> None:
+        """Each directional layer as a texture naming its EXR through PATCHLIGHT_texture_exr,
+        PATCHLIGHT_lightmap_directional on every material."""
+        textures = []
+        for layer, exr in zip(directional.layers, directional.exr):
+            name = directional_name(layer)
+            self.doc.images.append(gl.Image(bufferView=self.view(exr), mimeType=EXR_MIME, name=name))
+            self.doc.textures.append(gl.Texture(sampler=sampler, name=name,
+                                                extensions={EXR: {"source": len(self.doc.images) - 1}}))
+            textures.append(len(self.doc.textures) - 1)
+        for material in self.doc.materials:
+            material.extensions = {**(material.extensions or {}), DIRECTIONAL: directional_reference(textures, directional)}
+        for name in (DIRECTIONAL, EXR):
+            self.use_extension(name)
 
 
 def _to_uint8(values: np.ndarray) -> np.ndarray:

@@ -11,9 +11,10 @@ import pygltflib as gl
 
 from ...errors import PatchlightError
 from ...imaging.io import read_bytes
-from ...imaging.lightmap import EncodedLightmap
+from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene
 from .container import Document, FLOAT, GLB_MAGIC, POINTS_AND_LINES, TRIANGLES, UINT, attribute_map, document_text, file_stamp, split_glb
+from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
 from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
 from .editor import GlbEditor
 
@@ -145,14 +146,14 @@ class SourceWriter(GlbEditor):
         return positions[block.sources].astype(np.float64)
 
     def write(self, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool = False,
-              extras: dict | None = None) -> bytes:
+              extras: dict | None = None, directional: EncodedDirectional | None = None) -> bytes:
         """The .glb bytes; folder: where it will live (image sky paths are relative to it)."""
         primitives = self.rewritten_primitives()
         self.assign_meshes(primitives)
         self.drop_unused_draco()
         self.root_extras(extras or {})
         if lightmap is not None:
-            self.lightmap(lightmap, meta, primitives)
+            self.lightmap(lightmap, meta, primitives, directional)
         if unlit:
             self.mark_unlit()
         self.mark_lights()
@@ -185,10 +186,12 @@ class SourceWriter(GlbEditor):
         for material in self.raw.get("materials") or []:
             material.setdefault("extensions", {})[UNLIT] = {}
             material["extensions"].pop(MOZ_LIGHTMAP, None)
+            material["extensions"].pop(DIRECTIONAL, None)
             if is_lightmap_occlusion(material.get("occlusionTexture"), self.raw.get("textures") or []):
                 del material["occlusionTexture"]
-        if MOZ_LIGHTMAP in (self.raw.get("extensionsUsed") or []):
-            self.raw["extensionsUsed"].remove(MOZ_LIGHTMAP)
+        for name in (MOZ_LIGHTMAP, DIRECTIONAL):
+            if name in (self.raw.get("extensionsUsed") or []):
+                self.raw["extensionsUsed"].remove(name)
         patchlight = (self.raw.get("extras") or {}).get("patchlight")
         if isinstance(patchlight, dict):
             patchlight.pop("lightmap", None)
@@ -324,12 +327,13 @@ class SourceWriter(GlbEditor):
                 if not self.raw[key]:
                     del self.raw[key]
 
-    def lightmap(self, lightmap: EncodedLightmap, meta: dict, primitives: dict[int, list[dict]]) -> None:
+    def lightmap(self, lightmap: EncodedLightmap, meta: dict, primitives: dict[int, list[dict]],
+                 directional: EncodedDirectional | None = None) -> None:
         """The lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the new
         images, else a new texture "patchlight_lightmap" (PNG source, .hdr through
         MOZ_texture_rgbe); MOZ_lightmap on the materials of the triangle primitives written, and
         the lightmap as their occlusionTexture at strength 0 where they have none of their own;
-        root extras.patchlight.lightmap."""
+        root extras.patchlight.lightmap; the directional lightmap (`directional`)."""
         raw = self.raw
         description = lightmap_description(lightmap, meta)
         extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
@@ -366,6 +370,43 @@ class SourceWriter(GlbEditor):
         used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]
         description["texture"] = texture
         raw["extras"] = {**extras, "patchlight": {**patchlight, "lightmap": description}}
+        self.directional(directional, textures[texture].get("sampler"), [materials[m] for m in sorted(lit)
+                                                                         if 0 <= m < len(materials)])
+
+    def directional(self, directional: EncodedDirectional | None, sampler: int | None, lit: list[dict]) -> None:
+        """Each directional layer as the texture named directional_name(layer) (an earlier bake's
+        reused) naming its EXR image through PATCHLIGHT_texture_exr, and
+        PATCHLIGHT_lightmap_directional on the lit materials; without one, an earlier bake's
+        reference goes."""
+        raw = self.raw
+        used = raw.setdefault("extensionsUsed", [])
+        if directional is None:
+            for material in lit:
+                (material.get("extensions") or {}).pop(DIRECTIONAL, None)
+            if DIRECTIONAL in used and not any(DIRECTIONAL in (m.get("extensions") or {}) for m in raw.get("materials") or []):
+                used.remove(DIRECTIONAL)
+            return
+        textures, images = raw["textures"], raw["images"]
+        named = {t.get("name"): k for k, t in enumerate(textures) if isinstance(t, dict)}
+        indices = []
+        for layer, exr in zip(directional.layers, directional.exr):
+            name = directional_name(layer)
+            image = {"name": name, "bufferView": self.add_view(exr), "mimeType": EXR_MIME}
+            k = named.get(name)
+            source = None if k is None else ((textures[k].get("extensions") or {}).get(EXR) or {}).get("source")
+            if isinstance(source, int) and 0 <= source < len(images) and images[source].get("name") == name:
+                images[source] = image
+            else:
+                images.append(image)
+                source = len(images) - 1
+            if k is None:
+                textures.append({"name": name, **({} if sampler is None else {"sampler": sampler})})
+                k = len(textures) - 1
+            textures[k]["extensions"] = {**(textures[k].get("extensions") or {}), EXR: {"source": source}}
+            indices.append(k)
+        for material in lit:
+            material["extensions"][DIRECTIONAL] = directional_reference(indices, directional)
+        used += [name for name in (DIRECTIONAL, EXR) if name not in used]
 
     def sky(self, folder: Path) -> None:
         """The bake's sky in extras.patchlight.sky of the scene the loader reads (that scene's

@@ -13,30 +13,79 @@
 //   without this plugin a viewer takes the texture's 8-bit PNG source instead.
 // - occlusionTexture {index: the lightmap, strength: 0} (written so that validators see the
 //   lightmap and TEXCOORD_1 used): glTF's no-op, so the material's aoMap is dropped, never sampled.
+// - PATCHLIGHT_lightmap_directional {mode, maps} on a material (bake --directional): the
+//   directional lightmap, textures whose PATCHLIGHT_texture_exr {source} is a half-float EXR
+//   (three.js's EXRLoader; stored top row first, as glTF images are, so flipY is set). The
+//   material's shader is patched so that the baked light the (normal-mapped) normal receives is
+//   the lightmap-directional model's: directional_light() of patchlight's GLSL chunk
+//   lightmap_directional.glsl, fetched from options.shaders (default: ../../shaders/ beside this
+//   file, as in the package and the viewer; copy that file along when you copy this one).
 // - KHR_lights_punctual lights whose extras say {"baked": true}: their light is in the lightmap
 //   already, so they are turned off (light.visible = false) unless options.keepBakedLights.
-import { FloatType, HalfFloatType } from 'three';
+import { FloatType, HalfFloatType, ShaderChunk } from 'three';
 import { HDRLoader } from 'three/addons/loaders/HDRLoader.js';
+import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
+
+const DIRECTIONAL = 'PATCHLIGHT_lightmap_directional';
+const EXR = 'PATCHLIGHT_texture_exr';
+const CHUNKS = ['blinn_phong.glsl', 'lightmap_directional.glsl'];  // the chunk and the one it calls
+// three.js's lightmap line (lights_fragment_maps) and what the directional lightmap makes of it:
+// the irradiance for the normal-mapped normal, both normals turned from view into world axes.
+const LIGHTMAP_LINE = 'vec3 lightMapIrradiance = lightMapTexel.rgb * lightMapIntensity;';
+const DIRECTIONAL_LINE = 'vec3 lightMapIrradiance = directional_light( vLightMapUv, lightMapTexel.rgb * lightMapIntensity, '
+  + 'inverseTransformDirection( normal, viewMatrix ), inverseTransformDirection( nonPerturbedNormal, viewMatrix ) );';
 
 export class PatchlightPlugin {
-  constructor(parser, { float = false, keepBakedLights = false } = {}) {
+  constructor(parser, { float = false, keepBakedLights = false,
+    shaders = new URL('../../shaders/', import.meta.url) } = {}) {
     this.parser = parser;
     this.name = 'MOZ_lightmap';
     this.keepBakedLights = keepBakedLights;
-    this.hdrLoader = new HDRLoader(parser.options.manager).setDataType(float ? FloatType : HalfFloatType);
+    this.shaders = shaders;
+    const type = float ? FloatType : HalfFloatType;
+    this.hdrLoader = new HDRLoader(parser.options.manager).setDataType(type);
+    this.exrLoader = new EXRLoader(parser.options.manager).setDataType(type);
+    this.directional = new Map();  // material index -> {mode, maps: [Texture]}
   }
 
   loadTexture(textureIndex) {
-    const rgbe = this.parser.json.textures[textureIndex].extensions?.MOZ_texture_rgbe;
-    if (!rgbe) return null;
-    return this.parser.loadTextureImage(textureIndex, rgbe.source, this.hdrLoader);
+    const extensions = this.parser.json.textures[textureIndex].extensions;
+    if (extensions?.MOZ_texture_rgbe) {
+      return this.parser.loadTextureImage(textureIndex, extensions.MOZ_texture_rgbe.source, this.hdrLoader);
+    }
+    if (extensions?.[EXR]) {
+      return this.parser.loadTextureImage(textureIndex, extensions[EXR].source, this.exrLoader).then((texture) => {
+        texture.flipY = true;  // EXRLoader hands the rows bottom first; glTF's v = 0 is the top row
+        return texture;
+      });
+    }
+    return null;
   }
 
   extendMaterialParams(materialIndex, params) {
-    const lightmap = this.parser.json.materials[materialIndex].extensions?.MOZ_lightmap;
+    const extensions = this.parser.json.materials[materialIndex].extensions;
+    const lightmap = extensions?.MOZ_lightmap;
     if (!lightmap) return null;
     params.lightMapIntensity = lightmap.intensity ?? 1;
-    return this.parser.assignTexture(params, 'lightMap', lightmap);
+    const pending = [this.parser.assignTexture(params, 'lightMap', lightmap)];
+    const directional = extensions[DIRECTIONAL];
+    if (directional) {
+      this.glsl ??= this.loadChunks();
+      const maps = directional.maps.map((map) => this.parser.getDependency('texture', map.index));
+      pending.push(Promise.all([this.glsl, ...maps]).then(([glsl, ...textures]) => {
+        this.directional.set(materialIndex, { mode: directional.mode, maps: textures, glsl });
+      }));
+    }
+    return Promise.all(pending);
+  }
+
+  async loadChunks() {
+    const texts = await Promise.all(CHUNKS.map(async (name) => {
+      const response = await fetch(new URL(name, this.shaders));
+      if (!response.ok) throw new Error(`patchlight plugin: ${name}: HTTP ${response.status}`);
+      return response.text();
+    }));
+    return texts.join('\n');
   }
 
   afterRoot(gltf) {
@@ -45,6 +94,8 @@ export class PatchlightPlugin {
         if (object.isLight && object.userData.baked === true && !this.keepBakedLights) object.visible = false;
         for (const material of object.isMesh ? [object.material].flat() : []) {
           if (this.isLightmapOcclusion(material)) material.aoMap = null;
+          const directional = this.directional.get(this.parser.associations.get(material)?.materials);
+          if (directional && material.lightMap) this.applyDirectional(material, directional);
         }
       });
     }
@@ -58,5 +109,22 @@ export class PatchlightPlugin {
     const occlusion = def?.occlusionTexture;
     return Boolean(occlusion && occlusion.strength === 0
                    && occlusion.index === def.extensions?.MOZ_lightmap?.index);
+  }
+
+  // The material's lightmap read through the directional lightmap: its shader gets the GLSL chunk
+  // and the maps as directional_map0..3, and three.js's lightmap line reads directional_light().
+  applyDirectional(material, { mode, maps, glsl }) {
+    const mapsFragment = ShaderChunk.lights_fragment_maps.replace(LIGHTMAP_LINE, DIRECTIONAL_LINE);
+    if (mapsFragment === ShaderChunk.lights_fragment_maps) {
+      throw new Error('patchlight plugin: this three.js version reads its lightmap differently');
+    }
+    material.onBeforeCompile = (shader) => {
+      maps.forEach((map, k) => { shader.uniforms[`directional_map${k}`] = { value: map }; });
+      shader.fragmentShader = shader.fragmentShader
+        .replace('void main() {', `${mode === 'sh' ? '#define DIRECTIONAL_SH\n' : ''}${glsl}\nvoid main() {`)
+        .replace('#include <lights_fragment_maps>', mapsFragment);
+    };
+    material.customProgramCacheKey = () => `patchlight-directional-${mode}`;
+    material.needsUpdate = true;
   }
 }
