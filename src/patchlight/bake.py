@@ -74,6 +74,12 @@ def _input_warnings(scene: Scene) -> list[str]:
     return [f"{where}: {n} {what}" for n, what in counted if n] + list(scene.extras.get("warnings", []))
 
 
+def _texels_per_atlas(patches: Patches, atlases: dict) -> list[int]:
+    """How many texels of each atlas a triangle covers."""
+    rows = patches.texel_y // atlases["height"]
+    return np.bincount(rows, minlength=atlases["count"]).tolist()
+
+
 def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walled: np.ndarray, gatherer: Gatherer,
                        solution: Solution, per_light: list[np.ndarray], rows: np.ndarray, mode: str,
                        advance) -> np.ndarray:
@@ -120,7 +126,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("lightmap UVs"):
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
-                padding=settings.padding, densities=settings.density)
+                padding=settings.padding, densities=settings.density, max_atlas=settings.max_atlas)
         check_bake_memory(width, height, settings.texel_samples, available)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
@@ -186,6 +192,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     to_come = change_to_come(solution.changes)
     stats = {
         "resolution": [width, height],
+        "atlases": {**uv_info["atlases"], "texels_used": _texels_per_atlas(patches, uv_info["atlases"])},
         "patches": len(patches),
         "computed_patches": int(counts[adaptive.COMPUTED]),
         "interpolated_patches": int(counts[adaptive.INTERPOLATED]),

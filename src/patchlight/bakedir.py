@@ -5,9 +5,9 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
     lightmap.exr    float32 incident light I (H, W, 3), row 0 = v 0; its alpha channel the
                     validity: 1 for texels with light of their own (a patch on a visible
                     surface, computed or interpolated), 0 inside geometry and in the padding
-    scene.glb       the scene with its lightmap UVs in TEXCOORD_1, the lightmap (MOZ_lightmap)
-                    and the directional lightmap, if any (PATCHLIGHT_lightmap_directional;
-                    patchlight.scene.gltf)
+    scene.glb       the scene with its lightmap UVs in TEXCOORD_1, the lightmap textures
+                    (MOZ_lightmap) and the directional lightmap, if any and of one atlas
+                    (PATCHLIGHT_lightmap_directional; patchlight.scene.gltf)
     lightmap.png    the lightmap exposed for display (sRGB)
     adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
     texels.npz      every pass and the per-texel arrays the viewer reads (Texels below)
@@ -16,11 +16,17 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
                     the directional lightmap, if the bake made one (--directional;
                     shading.directional: layers L0, L1x, L1y, L1z of RGB, or the dominant
                     direction as RGB)
-    bake.json       the summary: settings, sky, statistics, the list of files
+    bake.json       the summary: settings, sky, statistics, the atlases, the list of files
 
 written as one set: staged, then swapped in whole (patchlight.outputs.staged_output), so a
 reader never meets a mixture of two bakes; files of an older bake that a new one need not
 write are removed (STALE). A directory is a (complete) bake only with bake.json.
+
+A bake of several atlases (`--max-atlas`) writes each atlas's maps as files of their own,
+lightmap_0.exr, lightmap_1.exr, ... (and lightmap_sh_0.exr, ...: `atlas_files`); bake.json's
+"atlases" gives their count, size and files. The pictures (lightmap.png, adaptive.png,
+pass_NN.png) and texels.npz hold the atlases stacked top to bottom, as the bake works on
+them (`scene.model.stacked_uv1`); the readers here stack the files the same way.
 """
 from __future__ import annotations
 
@@ -39,9 +45,9 @@ SCENE = "scene.glb"
 LIGHTMAP_PICTURE = "lightmap.png"
 ADAPTIVE_PICTURE = "adaptive.png"
 DIRECTIONAL = {"sh": "lightmap_sh.exr", "dominant": "lightmap_dir.exr"}  # by DirectionalLightmap.mode
-STALE = ("pass_*.png", *DIRECTIONAL.values())  # an older bake's files a new one need not write
+STALE = ("pass_*.png", "lightmap*.exr")  # an older bake's files a new one need not write
 TEXELS = "texels.npz"
-REQUIRED = (SCENE, LIGHTMAP, MARKER)
+REQUIRED = (SCENE, MARKER)  # and the lightmap: LIGHTMAP, or atlas_files(LIGHTMAP, n)
 STATUS_NAMES = ("uncovered", "gathered", "interpolated", "inside geometry")  # texels.npz's status
 
 
@@ -50,33 +56,72 @@ def pass_picture(number: int) -> str:
     return f"pass_{number:02d}.png"
 
 
+def atlas_files(name: str, count: int) -> list[str]:
+    """The files of a map `name` (LIGHTMAP, a DIRECTIONAL name) in a bake of `count` atlases:
+    the name itself for one, else "lightmap_0.exr", "lightmap_1.exr", ..."""
+    if count == 1:
+        return [name]
+    stem, dot, suffix = name.rpartition(".")
+    return [f"{stem}_{k}{dot}{suffix}" for k in range(count)]
+
+
 def is_bake_dir(path: str | Path) -> bool:
-    """A complete bake: scene.glb and lightmap.exr, and bake.json, which is written last. A
-    built-in scene's name is never a bake directory."""
+    """A complete bake: scene.glb, the lightmap (lightmap.exr, or lightmap_0.exr ...) and
+    bake.json, which is written last. A built-in scene's name is never a bake directory."""
     from .scene import is_builtin
 
     p = Path(path)
-    return not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in REQUIRED)
+    return (not is_builtin(path) and p.is_dir() and all((p / name).exists() for name in REQUIRED)
+            and any((p / atlas_files(LIGHTMAP, n)[0]).exists() for n in (1, 2)))
 
 
 def require_bake_dir(path: str | Path) -> Path:
     """`path` as a complete bake directory, else a one-line PatchlightError."""
     if not is_bake_dir(path):
         raise PatchlightError(f"{path}: not a complete bake (a directory is not a bake without "
-                              f"{', '.join(REQUIRED[:-1])} and {REQUIRED[-1]})")
+                              f"{SCENE}, {LIGHTMAP} and {MARKER})")
     return Path(path)
+
+
+def atlas_count(path: str | Path) -> int:
+    """How many atlases the bake in `path` has (bake.json's "atlases"; 1 for a bake without,
+    or for a folder without bake.json)."""
+    from .scene.model import MAX_ATLASES
+
+    summary = _marker(path) if (Path(path) / MARKER).exists() else None
+    atlases = summary.get("atlases") if isinstance(summary, dict) else None
+    count = atlases.get("count") if isinstance(atlases, dict) else 1
+    if not (isinstance(count, int) and not isinstance(count, bool) and 1 <= count <= MAX_ATLASES):
+        raise PatchlightError(f"{Path(path) / MARKER}: atlases count {count!r} is not a whole number in 1..{MAX_ATLASES}")
+    return count
+
+
+def _read_atlases(path: Path, name: str, read):
+    """The map `name` of bake `path`, its atlases' files read by `read(file)` and stacked along
+    rows (None when `read` gives None for them)."""
+    pages = [read(Path(path) / file) for file in atlas_files(name, atlas_count(path))]
+    if any(page is None for page in pages):
+        return None
+    if len({page.shape for page in pages}) > 1:
+        raise PatchlightError(f"{Path(path) / atlas_files(name, len(pages))[0]}: the atlases' files differ in size")
+    return np.concatenate(pages, axis=-3 if pages[0].ndim == 4 else 0)
 
 
 def read_summary(path: str | Path) -> dict:
     """The bake.json of bake directory `path`, parsed."""
+    summary = _marker(path)
+    if not isinstance(summary, dict) or not isinstance(summary.get("settings"), dict):
+        raise PatchlightError(f"{Path(path) / MARKER}: not a bake summary (no settings in it)")
+    return summary
+
+
+def _marker(path: str | Path):
+    """bake.json of bake directory `path`, parsed (any JSON value)."""
     from .imaging.io import read_bytes
     from .limits import load_json
 
     where = Path(path) / MARKER
-    summary = load_json(read_bytes(where), str(where))
-    if not isinstance(summary, dict) or not isinstance(summary.get("settings"), dict):
-        raise PatchlightError(f"{where}: not a bake summary (no settings in it)")
-    return summary
+    return load_json(read_bytes(where), str(where))
 
 
 def recorded_sun_angle(path: str | Path) -> float | None:
@@ -91,9 +136,12 @@ def read_lightmap(path: str | Path) -> np.ndarray:
     """(H, W, 3) float32 incident light of bake directory `path`; PatchlightError naming the
     texels that are not finite (a damaged or hand-edited file). Small negative values, which
     interpolation and denoising leave, are kept."""
+    return _read_atlases(path, LIGHTMAP, _finite_exr)
+
+
+def _finite_exr(where: Path) -> np.ndarray:
     from .imaging.io import read_exr
 
-    where = Path(path) / LIGHTMAP
     lightmap = read_exr(where)
     bad = ~np.isfinite(lightmap).all(axis=2)
     if bad.any():
@@ -116,7 +164,7 @@ def read_validity(path: str | Path) -> np.ndarray | None:
     alpha), or None for a bake written without it."""
     from .imaging.io import read_exr_alpha
 
-    alpha = read_exr_alpha(Path(path) / LIGHTMAP)
+    alpha = _read_atlases(path, LIGHTMAP, read_exr_alpha)
     return None if alpha is None else alpha > 0.5
 
 
@@ -127,6 +175,9 @@ def read_scene(path: str | Path):
     scene = load_gltf(Path(path) / SCENE)
     if scene.uv1 is None:
         raise PatchlightError(f"{Path(path) / SCENE}: no TEXCOORD_1 lightmap UVs")
+    if scene.atlases != atlas_count(path):
+        raise PatchlightError(f"{Path(path) / SCENE}: {scene.atlases} lightmap atlases, but {MARKER} says "
+                              f"{atlas_count(path)}")
     return scene
 
 
@@ -137,16 +188,20 @@ def read_directional(path: str | Path):
     from .shading.directional import DirectionalLightmap
 
     for mode, name in DIRECTIONAL.items():
-        if (Path(path) / name).exists():
-            return DirectionalLightmap(mode, np.stack(read_exr_layers(Path(path) / name, _layers(mode))))
+        if (Path(path) / atlas_files(name, atlas_count(path))[0]).exists():
+            maps = _read_atlases(path, name, lambda file: np.stack(read_exr_layers(file, _layers(mode))))
+            return DirectionalLightmap(mode, maps)
     return None
 
 
-def write_directional(folder: Path, directional) -> None:
-    """Write a DirectionalLightmap into `folder` (a bake's staging directory)."""
+def write_directional(folder: Path, directional, atlases: int = 1) -> None:
+    """Write a DirectionalLightmap (its maps over `atlases` stacked atlases) into `folder` (a
+    bake's staging directory)."""
     from .imaging.io import write_exr_layers
 
-    write_exr_layers(Path(folder) / DIRECTIONAL[directional.mode], dict(zip(_layers(directional.mode), directional.maps)))
+    pages = np.split(directional.maps, atlases, axis=1)
+    for file, maps in zip(atlas_files(DIRECTIONAL[directional.mode], atlases), pages):
+        write_exr_layers(Path(folder) / file, dict(zip(_layers(directional.mode), maps)))
 
 
 def _layers(mode: str) -> tuple[str, ...]:
@@ -173,6 +228,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
+    count = result.scene.atlases
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
     images = {LIGHTMAP_PICTURE: exposed_png_pixels(result.lightmap, k),
               ADAPTIVE_PICTURE: debug_image(result.patches, result.status)}
@@ -180,22 +236,29 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
         images.update({pass_picture(i): exposed_png_pixels(image, k)
                        for i, image in enumerate(result.pass_images(), start=1)})
     meta = {"quantity": "incident light I (cosine-weighted mean radiance) = texel x scale", "exposure": k}
-    extra = [] if result.directional is None else [DIRECTIONAL[result.directional.mode]]
-    names = sorted([LIGHTMAP, SCENE, TEXELS, MARKER, *images, *extra])
+    lightmaps = atlas_files(LIGHTMAP, count)
+    extra = [] if result.directional is None else atlas_files(DIRECTIONAL[result.directional.mode], count)
+    names = sorted([*lightmaps, SCENE, TEXELS, MARKER, *images, *extra])
     sky = result.scene.sky
+    stats = dict(result.stats)
+    if "atlases" in stats:
+        stats["atlases"] = {**stats["atlases"], "files": lightmaps}
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
-               **result.stats, "files": names}
-    write_exr(staging / LIGHTMAP, result.lightmap, alpha=result.valid)
+               **stats, "files": names}
+    for file, page, valid in zip(lightmaps, np.split(result.lightmap, count), np.split(result.valid, count)):
+        write_exr(staging / file, page, alpha=valid)
     if result.directional is not None:
-        write_directional(staging, result.directional)
+        write_directional(staging, result.directional, count)
     write_bytes(staging / TEXELS, texels_of(result).to_bytes())
     for name, pixels in images.items():
         write_png(staging / name, pixels)
-    lightmap = encode_lightmap(result.lightmap)
-    directional = None if result.directional is None else encode_directional(
-        result.directional.mode, dict(zip(_layers(result.directional.mode), result.directional.maps)), lightmap.scale)
-    save_baked_glb(result.scene, staging / SCENE, lightmap, meta, folder=out_dir, directional=directional)
+    scale = encode_lightmap(result.lightmap).scale  # one scale for every atlas
+    encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
+    directional = None if result.directional is None or count > 1 else encode_directional(
+        result.directional.mode, dict(zip(_layers(result.directional.mode), result.directional.maps)), scale)
+    save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
+                   directional=directional)
     write_json(staging / MARKER, summary)
     return summary
 

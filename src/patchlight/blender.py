@@ -2,8 +2,9 @@
 
 bpy is an optional extra (`pip install patchlight[blender]`); this module imports it only when
 called. The .blend holds scene.glb as Blender's glTF importer brings it in, with:
-- `lightmap.exr` (float incident light I, linear) as an image, read through the lightmap UV
-  map (glTF's TEXCOORD_1; the importer turns v into 1 - v, as Blender's images have their top
+- `lightmap.exr` (float incident light I, linear) as an image (with several atlases each
+  material gets its own atlas's file, lightmap_0.exr, ...), read through the lightmap UV map
+  (glTF's TEXCOORD_1; the importer turns v into 1 - v, as Blender's images have their top
   row at v = 1, so the EXR, top row first, is read upright as it is);
 - every material of a lightmapped mesh drawing Emission = base colour x lightmap + its own
   emission, strength 1, straight into the Material Output: the radiance rho x I of a diffuse
@@ -36,10 +37,25 @@ def import_bpy():
     return bpy
 
 
+def _document(glb: Path) -> dict:
+    """scene.glb's JSON."""
+    data = read_bytes(glb)
+    return json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
+
+
+def atlas_of_material_names(glb: Path) -> dict[str, int]:
+    """The lightmap atlas of each material of scene.glb, by name (as Blender's importer names them)."""
+    from .scene.gltf.baked import atlas_of_materials
+
+    doc = _document(glb)
+    materials = doc.get("materials") or []
+    _, atlas_of = atlas_of_materials(doc.get("extras"), [m.get("extensions") for m in materials])
+    return {materials[number].get("name") or f"material {number}": atlas for number, atlas in atlas_of.items()}
+
+
 def baked_light_nodes(glb: Path) -> set[str]:
     """Names of the nodes of scene.glb that carry a light marked baked (extras.baked)."""
-    data = read_bytes(glb)
-    doc = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
+    doc = _document(glb)
     lights = ((doc.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights") or []
     names = set()
     for number, node in enumerate(doc.get("nodes") or []):
@@ -53,8 +69,10 @@ def write_blend(bake_dir, out) -> Path:
     """Import the bake in `bake_dir` into an empty Blender scene, wire its lightmap and save
     `out` (.blend) atomically (module docstring); returns the path."""
     bake_dir, out = Path(bake_dir), Path(out)
-    glb, exr = bake_dir / bakedir.SCENE, bake_dir / bakedir.LIGHTMAP
-    for needed in (glb, exr):
+    glb = bake_dir / bakedir.SCENE
+    count = bakedir.atlas_count(bake_dir) if (bake_dir / bakedir.MARKER).is_file() else 1
+    exrs = [bake_dir / name for name in bakedir.atlas_files(bakedir.LIGHTMAP, count)]
+    for needed in (glb, *exrs):
         if not needed.is_file():
             raise PatchlightError(f"{bake_dir}: not a bake directory ({needed.name} is missing)")
     if out.suffix.lower() != ".blend":
@@ -65,9 +83,12 @@ def write_blend(bake_dir, out) -> Path:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if bpy.ops.import_scene.gltf(filepath=str(glb.resolve())) != {"FINISHED"}:
         raise PatchlightError(f"{glb}: Blender's glTF importer failed")
-    image = bpy.data.images.load(str(exr.resolve()))
-    image.name = LIGHTMAP_IMAGE
-    image.colorspace_settings.name = "Non-Color"  # linear data, as stored
+    images = []
+    for number, exr in enumerate(exrs):
+        images.append(bpy.data.images.load(str(exr.resolve())))
+        images[-1].name = LIGHTMAP_IMAGE if count == 1 else f"{LIGHTMAP_IMAGE}_{number}"
+        images[-1].colorspace_settings.name = "Non-Color"  # linear data, as stored
+    atlas_of = atlas_of_material_names(glb)
     materials = {}
     for obj in bpy.context.scene.objects:
         if obj.type == "MESH" and len(obj.data.uv_layers) >= 2:
@@ -77,7 +98,7 @@ def write_blend(bake_dir, out) -> Path:
     if not materials:
         raise PatchlightError(f"{glb}: no mesh has lightmap UVs (TEXCOORD_1)")
     for material, uv_map in materials.values():
-        wire_lightmap(material, image, uv_map)
+        wire_lightmap(material, images[atlas_of.get(material.name, 0)], uv_map)
     baked = baked_light_nodes(glb)
     for obj in [o for o in bpy.context.scene.objects if o.type == "LIGHT" and o.name in baked]:
         bpy.data.objects.remove(obj, do_unlink=True)

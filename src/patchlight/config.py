@@ -82,6 +82,9 @@ class BakeSettings:
     texels_per_unit: float = setting(16.0, "texels / m", "lightmap density when UVs are made", lo=TEXELS_PER_UNIT[0],
                                      hi=TEXELS_PER_UNIT[1], typical="8-64")
     padding: int = setting(2, "texels", "gap between UV charts", typical="2")
+    max_atlas: int = setting(4096, "texels", "the largest atlas edge: charts that do not fit one such atlas go to "
+                             "several (lightmap_0.exr, lightmap_1.exr, ...)", lo=64, hi=8192, whole=True,
+                             typical="2048-8192")
     gather: str = setting("stratified", "", "gather rays: stratified cosine rays, or hemicubes (measured slower "
                           "to a given error)", choices=GATHERS)
     hemicube_size: int = setting(32, "pixels", "hemicube front face N x N", lo=2, hi=512, even=True, whole=True,

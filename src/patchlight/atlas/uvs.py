@@ -8,6 +8,15 @@ ensure_lightmap_uvs parameters:
 | resolution      | int 16..8192 | square lightmap size; overrides texels_per_unit               | None    |
 | padding         | int >= 0     | empty texels between charts (and around the atlas edge)       | 2       |
 | densities       | {name: T}    | texels per metre of the objects so named (over their extras)  | None    |
+| max_atlas       | int 64..8192 | the largest atlas edge; charts that need more go to several   | 4096    |
+
+Several atlases: when the packed charts do not fit one max_atlas x max_atlas atlas, they are
+moved, by whole texels and unchanged in shape, onto as many atlases of one size as they need
+(shelf-packed, largest group first, into the first atlas with room). The charts of one object
+and material go to one atlas together (a glTF primitive's material references one lightmap
+texture), as does a chart that spans several. The atlases are stacked along v in uv1
+(`scene.model.stacked_uv1`; Scene.atlases says how many), so the bake works on one image of
+width x (atlases x height) texels; the bake directory and scene.glb split it again.
 
 Per-object density: each object's positions go to the packer scaled about their centre by
 its density over the base one, so its charts come out that much larger; `info["objects"]`
@@ -40,11 +49,12 @@ from scipy.sparse.csgraph import connected_components
 from ..config import BakeSettings
 from ..errors import PatchlightError
 from ..imaging.packing import shelf_pack
-from ..scene.model import Scene, face_normals
+from ..scene.model import Scene, face_normals, stacked_uv1
 from . import _kernels
 
 DEFAULT_TEXELS_PER_UNIT = BakeSettings.texels_per_unit  # texels per metre (config.py)
 MIN_SIZE, MAX_SIZE = 16, 8192   # lightmap edge in texels
+MAX_ATLAS = BakeSettings.max_atlas  # default largest atlas edge (config.py)
 MAX_TEXELS = 8192 * 8192
 PLANAR_COS = 0.99999            # fallback charts: normals within ~0.26 degrees of the seed's
 CELL_MARGIN = 0.01              # texels kept free inside a chart's cell, so float32 uv1 rounding
@@ -71,17 +81,23 @@ class _XatlasFailed(Exception):
 
 
 def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, resolution: int | None = None,
-                        padding: int = 2, densities: dict[str, float] | None = None) -> tuple[Scene, int, int, dict]:
+                        padding: int = 2, densities: dict[str, float] | None = None,
+                        max_atlas: int = MAX_ATLAS) -> tuple[Scene, int, int, dict]:
     """Give the scene lightmap UVs and choose the lightmap size.
 
     Returns (scene, width, height, info).  A scene with uv1 comes back unchanged; otherwise
     a new Scene whose vertices are split along chart seams (every per-vertex array remapped)
-    with uv1 set.  info: uv_source ("TEXCOORD_1" | "xatlas" | "fallback"), charts, width,
-    height, texels_per_unit (the density the charts were packed at; for TEXCOORD_1 the mean
-    over the surface), objects (each object's name and texels per metre), warnings (list of
-    str, at most one line about the packer and one about densities a kept TEXCOORD_1 ignores).
+    with uv1 set (over `scene.atlases` stacked atlases; width x height is the stack).  info:
+    uv_source ("TEXCOORD_1" | "xatlas" | "fallback"), charts, width, height, atlases (count,
+    width, height of each), texels_per_unit (the density the charts were packed at; for
+    TEXCOORD_1 the mean over the surface), objects (each object's name and texels per metre),
+    warnings (list of str, at most one line about the packer and one about densities a kept
+    TEXCOORD_1 ignores).
     """
     _check_options(texels_per_unit, resolution, padding)
+    if resolution is not None and resolution > max_atlas:
+        raise PatchlightError(f"resolution: {resolution} is larger than the atlas limit {max_atlas} "
+                              f"(--max-atlas); raise it or lower --resolution")
     density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
     names, triangle, scale = _object_scales(scene, density, densities or {})
     if scene.uv1 is not None:
@@ -101,10 +117,77 @@ def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, reso
     _check_size(width, height, scene)
     uv1 = (packing.uv_texels / np.array([width, height], np.float64)).astype(np.float32)
     out = _split_vertices(scene, packing.vmapping, packing.indices, uv1)
-    info = {"uv_source": source, "charts": packing.charts, "width": width, "height": height,
+    if max(width, height) > max_atlas:
+        out, width, height = _into_atlases(out, packing.uv_texels, _units(out, triangle), max_atlas, padding)
+    atlases = {"count": out.atlases, "width": width, "height": height // out.atlases}
+    info = {"uv_source": source, "charts": packing.charts, "width": width, "height": height, "atlases": atlases,
             "texels_per_unit": packing.texels_per_unit, "warnings": warnings,
             "objects": _object_report(out, width, height, names, triangle)}
     return out, width, height, info
+
+
+def _units(scene: Scene, triangle: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """The unit of each triangle (T,) i64 that must stay on one atlas (its object and its
+    material: a glTF primitive) and a name for each unit, for messages."""
+    materials = len(scene.materials)
+    key = triangle.astype(np.int64) * materials + scene.material_ids
+    unique, unit = np.unique(key, return_inverse=True)
+    objects = scene.objects.names if scene.objects is not None else [scene.name]
+    names = [f"{objects[k // materials]!r} (material {scene.materials[k % materials].name!r})" for k in unique]
+    return unit.ravel(), names
+
+
+def _into_atlases(scene: Scene, uv_texels: np.ndarray, units: tuple[np.ndarray, list[str]], limit: int,
+                  padding: int) -> tuple[Scene, int, int]:
+    """The scene with its charts moved onto several atlases (module docstring): returns it
+    (uv1 over the stack, `atlases` set), the width and the stack's height in texels.
+    uv_texels (V, 2) f64: the packed charts in texels."""
+    unit, unit_names = units
+    chart, charts = uv_charts(uv_texels.astype(np.float32), scene.indices)
+    group = _chart_groups(chart, charts, unit)
+    vertex_chart = np.zeros(len(uv_texels), np.int64)
+    vertex_chart[scene.indices] = chart[:, None]
+    lo = np.full((charts, 2), np.inf)
+    hi = np.full((charts, 2), -np.inf)
+    np.minimum.at(lo, vertex_chart, uv_texels)
+    np.maximum.at(hi, vertex_chart, uv_texels)
+    lo = np.floor(lo)
+    cells = np.maximum(np.ceil(hi) - lo, 1).astype(np.int64)
+    edge = limit - limit % 4
+    border = max(int(padding), 1)  # a texel at least along each atlas's edges (`atlas_uv1`)
+    atlas_of = np.full(charts, -1, np.int64)
+    at = np.zeros((charts, 2), np.int64)
+    used = []  # per atlas: (width, height)
+    groups = [np.flatnonzero(group == g) for g in range(int(group.max()) + 1)]
+    area = cells[:, 0] * cells[:, 1]
+    for members in sorted(groups, key=lambda m: -int(area[m].sum())):
+        for k in [*range(len(used)), len(used)]:
+            mine = np.concatenate([np.flatnonzero(atlas_of == k), members])
+            order = np.argsort(-cells[mine, 1], kind="stable")
+            x_at, y_at, width, height = shelf_pack(cells[mine, 0], cells[mine, 1], order, border, edge)
+            if width <= edge and height <= edge:
+                break
+            if k == len(used):
+                name = unit_names[unit[np.flatnonzero(np.isin(chart, members))[0]]]
+                raise PatchlightError(f"{scene.label}: the charts of {name} need more than one "
+                                      f"{limit}x{limit} atlas; raise --max-atlas or lower its density")
+        atlas_of[mine], at[mine] = k, np.stack([x_at, y_at], axis=1)
+        used[k:k + 1] = [(int(width), int(height))]
+    width = max(MIN_SIZE, _round_up4(max(w for w, _ in used)))
+    height = max(MIN_SIZE, _round_up4(max(h for _, h in used)))
+    moved = uv_texels - lo[vertex_chart] + at[vertex_chart]
+    local = (moved / np.array([width, height], np.float64)).astype(np.float32)
+    uv1 = stacked_uv1(local, atlas_of[vertex_chart], len(used))
+    stacked = dataclasses.replace(scene, uv1=uv1, atlases=len(used))
+    _check_size(width, height * len(used), scene)
+    return stacked, width, height * len(used)
+
+
+def _chart_groups(chart: np.ndarray, charts: int, unit: np.ndarray) -> np.ndarray:
+    """(C,) the group of each chart: charts joined by a unit (object and material) they share."""
+    units = int(unit.max()) + 1
+    graph = coo_matrix((np.ones(len(chart), np.int8), (chart, charts + unit)), shape=(charts + units,) * 2)
+    return connected_components(graph, directed=False)[1][:charts]
 
 
 def _object_scales(scene: Scene, density: float, asked: dict[str, float]) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -201,12 +284,13 @@ def _keep_texcoord1(scene, texels_per_unit, resolution, names, triangle, scale):
     uv_area = float(_uv_areas(uv1, scene.indices).sum())
     if uv_area <= 0.0 or world_area <= 0.0:
         raise PatchlightError(f"{where}: TEXCOORD_1 covers no area; remove it to let patchlight make lightmap UVs")
+    count = scene.atlases  # each atlas is size x size, stacked along v: uv_area spans all of them
     if resolution is not None:
         size = int(resolution)
     else:
         density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
-        # W^2 * uv_area texels must hold world_area * density^2
-        size = max(_round_up4(density * math.sqrt(world_area / uv_area)), MIN_SIZE)
+        # count W^2 * uv_area texels must hold world_area * density^2
+        size = max(_round_up4(density * math.sqrt(world_area / (count * uv_area))), MIN_SIZE)
         if size > MAX_SIZE:
             raise PatchlightError(f"{where}: its TEXCOORD_1 at {density:g} texels per metre needs a {size}x{size} "
                                   f"lightmap (limit {MAX_SIZE}); lower --texels-per-unit or set --resolution")
@@ -214,10 +298,11 @@ def _keep_texcoord1(scene, texels_per_unit, resolution, names, triangle, scale):
     warnings = _outside_unit_square(uv1, scene)
     if np.any(scale != 1.0):
         warnings.append(f"{scene.label}: its own TEXCOORD_1 is kept, so the per-object densities asked are not applied")
-    info = {"uv_source": "TEXCOORD_1", "charts": charts, "width": size, "height": size,
-            "texels_per_unit": size * math.sqrt(uv_area / world_area), "warnings": warnings,
-            "objects": _object_report(scene, size, size, names, triangle)}
-    return scene, size, size, info
+    info = {"uv_source": "TEXCOORD_1", "charts": charts, "width": size, "height": count * size,
+            "atlases": {"count": count, "width": size, "height": size},
+            "texels_per_unit": size * math.sqrt(count * uv_area / world_area), "warnings": warnings,
+            "objects": _object_report(scene, size, count * size, names, triangle)}
+    return scene, size, count * size, info
 
 
 def _outside_unit_square(uv1, scene) -> list[str]:
@@ -435,7 +520,7 @@ def _check_options(texels_per_unit, resolution, padding):
 
 
 def _check_size(width, height, scene):
-    if width * height > MAX_TEXELS or max(width, height) > 2 * MAX_SIZE:
+    if width * height > MAX_TEXELS:
         raise PatchlightError(f"{scene.label}: the lightmap would be {width}x{height} texels "
                               f"(limit {MAX_SIZE}x{MAX_SIZE}); lower --texels-per-unit or set --resolution")
 

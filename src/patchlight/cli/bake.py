@@ -31,6 +31,7 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
     size.add_argument("--resolution", type=int, metavar="N", help=about("resolution"))
     size.add_argument("--texels-per-unit", type=finite_number, default=DEFAULTS.texels_per_unit, metavar="T",
                       help=about("texels_per_unit"))
+    p.add_argument("--max-atlas", type=int, default=DEFAULTS.max_atlas, metavar="N", help=about("max_atlas"))
     p.add_argument("--gather", choices=GATHERS, default=DEFAULTS.gather, help=about("gather"))
     p.add_argument("--hemicube-size", type=int, default=DEFAULTS.hemicube_size, metavar="N", help=about("hemicube_size"))
     p.add_argument("--rays", type=int, default=DEFAULTS.rays, metavar="N", help=about("rays"))
@@ -80,7 +81,7 @@ def settings_from_args(args) -> BakeSettings:
             raise PatchlightError(f"--exposure must be a number or auto, got {exposure!r}") from None
     if not 0 <= args.max_memory <= MAX_MEMORY_GIB:
         raise PatchlightError(f"--max-memory {args.max_memory:g}: must lie in 0..{MAX_MEMORY_GIB} GiB")
-    settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit,
+    settings = BakeSettings(resolution=args.resolution, texels_per_unit=args.texels_per_unit, max_atlas=args.max_atlas,
                             gather=args.gather, hemicube_size=args.hemicube_size, rays=args.rays,
                             emitter_samples=args.emitter_samples,
                             passes=args.passes, tolerance=args.tolerance, adaptive=not args.no_adaptive,

@@ -156,6 +156,8 @@ class Scene:
     scene's triangles and vertices came from (None for built-in scenes); a stage that re-indexes
     vertices carries it (`Provenance.split`), one that drops or reorders triangles sets it to None.
     objects: the objects each triangle belongs to (None: the scene is one object).
+    atlases: how many lightmap atlases uv1 addresses, stacked along v (`stacked_uv1`): atlas k
+    is v in [k / atlases, (k + 1) / atlases]; one atlas is the plain [0, 1] square.
     """
 
     positions: np.ndarray
@@ -174,6 +176,7 @@ class Scene:
     extras: dict = field(default_factory=dict)
     provenance: Provenance | None = None
     objects: Objects | None = None
+    atlases: int = 1
 
     @property
     def label(self) -> str:
@@ -225,6 +228,35 @@ class Scene:
             raise PatchlightError(f"{self.label}: triangle indices point outside the vertex array")
         if self.n_triangles == 0:
             raise PatchlightError(f"{self.label}: no triangles to light")
+
+
+MAX_ATLASES = 256  # lightmap atlases a scene may address
+
+
+def stacked_uv1(local: np.ndarray, atlas: np.ndarray, atlases: int) -> np.ndarray:
+    """(V, 2) f32 lightmap UVs over `atlases` atlases stacked along v, from each vertex's UVs in
+    its own atlas (V, 2) f32 and that atlas (V,) int. `atlas_uv1` turns them back bit for bit:
+    a bake, its scene.glb (per-atlas TEXCOORD_1) and the scene read back address the same texels."""
+    if atlases == 1:
+        return local
+    v = (local[:, 1].astype(np.float64) + atlas) / atlases
+    return np.stack([local[:, 0], v.astype(np.float32)], axis=1)
+
+
+def atlas_uv1(uv1: np.ndarray, atlases: int) -> tuple[np.ndarray, np.ndarray]:
+    """(local (V, 2) f32, atlas (V,) i32): stacked lightmap UVs split into each vertex's atlas
+    and its UVs there, the inverse of `stacked_uv1` (a vertex lies inside its atlas's band:
+    the packer keeps at least a texel free along each atlas's edges)."""
+    if atlases == 1:
+        return uv1, np.zeros(len(uv1), np.int32)
+    v = uv1[:, 1].astype(np.float64) * atlases
+    atlas = np.clip(np.floor(v), 0, atlases - 1).astype(np.int32)
+    return np.stack([uv1[:, 0], (v - atlas).astype(np.float32)], axis=1), atlas
+
+
+def triangle_atlas(scene: "Scene") -> np.ndarray:
+    """(T,) i32 the lightmap atlas of each triangle (all of a chart's corners share one)."""
+    return atlas_uv1(scene.uv1, scene.atlases)[1][scene.indices[:, 0]]
 
 
 def face_normals(positions: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -108,6 +108,12 @@ scale is the lightmap's for sh, 1 for dominant. Each texture ("patchlight_direct
 decodes; the lightmap's sampler.
 
 save_baked_glb's `extras` go into the root extras.patchlight too (vertexbake's colorScale).
+
+Several atlases (`Scene.atlases` > 1, uv1 stacked along v: `scene.model.stacked_uv1`): one
+such texture per atlas, all of one scale; TEXCOORD_1 written in each vertex's own atlas; each
+material references its atlas's texture, a material drawn on several atlases getting a copy
+per further atlas, "<name> (atlas k)"; the description lists "textures" (atlas by atlas)
+instead of "texture". `load_gltf` stacks TEXCOORD_1 again from it (`baked.atlas_of_materials`).
 """
 from __future__ import annotations
 
@@ -118,7 +124,7 @@ from ...errors import PatchlightError
 from ...imaging.io import atomic_path
 from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene
-from .baked import lightmap_description
+from .baked import lightmap_description, lightmap_pages
 from .container import outside_files_allowed, outside_reason
 from .flattened import flattened_glb
 from .preserving import SourceWriter
@@ -127,11 +133,12 @@ from .reader import load_gltf
 __all__ = ["load_gltf", "outside_files_allowed", "outside_reason", "save_baked_glb"]
 
 
-def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | None = None,
+def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | list[EncodedLightmap] | None = None,
                    lightmap_meta: dict | None = None, unlit: bool = False, folder=None,
                    extras: dict | None = None, directional: EncodedDirectional | None = None) -> Path:
     """Write `scene` (and its lightmap, if given) as one .glb, atomically; returns the path.
 
+    lightmap: one image, or one per atlas (`scene.atlases`, in order).
     lightmap_meta: JSON-able dict stored with the lightmap's description in the root extras.
     extras: JSON-able dict merged into the root extras.patchlight.  directional: the directional
     lightmap beside the lightmap (needs `lightmap`).  Layout: see the module docstring.
@@ -146,6 +153,9 @@ def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | None = None,
     if lightmap is not None:
         if scene.uv1 is None:
             raise ValueError("save_baked_glb: a lightmap needs scene.uv1 (TEXCOORD_1)")
+        lightmap = lightmap_pages(lightmap)
+        if len(lightmap) != scene.atlases:
+            raise ValueError(f"save_baked_glb: {len(lightmap)} lightmap images for {scene.atlases} atlases")
         lightmap_description(lightmap, lightmap_meta or {})  # refuse bad input before any work
     elif directional is not None:
         raise ValueError("save_baked_glb: a directional lightmap needs the lightmap")

@@ -23,14 +23,42 @@ LIGHTMAP_SAMPLER = {"magFilter": LINEAR_FILTER, "minFilter": LINEAR_FILTER,
                      "wrapS": CLAMP_TO_EDGE, "wrapT": CLAMP_TO_EDGE}
 
 
-def lightmap_description(lightmap: EncodedLightmap, meta: dict) -> dict:
-    """extras.patchlight.lightmap without its "texture" index; ValueError for bad images or scale."""
-    if not lightmap.png.startswith(b"\x89PNG\r\n\x1a\n") or not lightmap.hdr.startswith(b"#?"):
-        raise ValueError("save_baked_glb: the lightmap needs PNG and Radiance .hdr bytes")
-    if not 0 < lightmap.scale < math.inf:
-        raise ValueError(f"save_baked_glb: the lightmap's scale must be positive, got {lightmap.scale!r}")
-    return {**jsonable(meta), "texture": None, "texCoord": 1, "scale": lightmap.scale,
-            "intensity": _lightmap_intensity(lightmap)}
+def lightmap_description(pages: list[EncodedLightmap], meta: dict) -> dict:
+    """extras.patchlight.lightmap of the lightmap's atlases, without the texture index (one
+    atlas: "texture") or indices (several: "textures", atlas by atlas); ValueError for bad
+    images or scales."""
+    for lightmap in pages:
+        if not lightmap.png.startswith(b"\x89PNG\r\n\x1a\n") or not lightmap.hdr.startswith(b"#?"):
+            raise ValueError("save_baked_glb: the lightmap needs PNG and Radiance .hdr bytes")
+        if not 0 < lightmap.scale < math.inf or lightmap.scale != pages[0].scale:
+            raise ValueError(f"save_baked_glb: the lightmap's scale must be positive and the same for every atlas, "
+                             f"got {lightmap.scale!r}")
+    where = {"texture": None} if len(pages) == 1 else {"textures": [None] * len(pages)}
+    return {**jsonable(meta), **where, "texCoord": 1, "scale": pages[0].scale,
+            "intensity": _lightmap_intensity(pages[0])}
+
+
+def lightmap_pages(lightmap: EncodedLightmap | list[EncodedLightmap]) -> list[EncodedLightmap]:
+    """save_baked_glb's lightmap as a list of atlases."""
+    return [lightmap] if isinstance(lightmap, EncodedLightmap) else list(lightmap)
+
+
+def atlas_of_materials(extras, material_extensions: list) -> tuple[int, dict[int, int]]:
+    """(count, {material index: atlas}): a scene.glb's lightmap atlases (root `extras`
+    .patchlight.lightmap "textures") and the atlas each material's MOZ_lightmap texture is;
+    (1, {}) for a lightmap of one atlas or none."""
+    patchlight = extras.get("patchlight") if isinstance(extras, dict) else None
+    description = patchlight.get("lightmap") if isinstance(patchlight, dict) else None
+    textures = description.get("textures") if isinstance(description, dict) else None
+    if not isinstance(textures, list) or len(textures) < 2:
+        return 1, {}
+    atlas = {texture: k for k, texture in enumerate(textures) if isinstance(texture, int)}
+    out = {}
+    for number, extensions in enumerate(material_extensions):
+        reference = extensions.get(MOZ_LIGHTMAP) if isinstance(extensions, dict) else None
+        if isinstance(reference, dict) and isinstance(reference.get("index"), int) and reference["index"] in atlas:
+            out[number] = atlas[reference["index"]]
+    return len(textures), out
 
 
 def _lightmap_intensity(lightmap: EncodedLightmap) -> float:

@@ -3,6 +3,7 @@ source file cannot be rewritten): one identity node and mesh per material, every
 the vertex accessors; materials, lights in photometric units and the camera."""
 from __future__ import annotations
 
+import copy
 import math
 from pathlib import Path
 
@@ -12,27 +13,29 @@ import pygltflib as gl
 from ...imaging.color import linear_to_srgb
 from ...imaging.io import check_finite, encode_png
 from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
-from ..model import Light, Material, Scene
+from ..model import Light, Material, Scene, atlas_uv1, triangle_atlas
 from .container import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT, LUMENS_PER_WATT, TRIANGLES, UINT, float_list
 from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
 
-def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool,
-                  extras: dict, directional: EncodedDirectional | None = None) -> bytes:
-    """The world-space soup as one .glb: one identity node and mesh per material."""
+def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | list[EncodedLightmap] | None, meta: dict,
+                  unlit: bool, extras: dict, directional: EncodedDirectional | None = None) -> bytes:
+    """The world-space soup as one .glb: one identity node and mesh per material and atlas
+    (a material on several atlases gets a copy per further atlas, "<name> (atlas k)")."""
     writer = _GlbWriter()
     attributes = writer.vertex_attributes(scene)
     writer.doc.materials = [writer.material(m, unlit) for m in scene.materials]
     if unlit:
         writer.use_extension(UNLIT)
-    nodes = writer.meshes(scene, attributes) + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
+    meshes, atlas_of = writer.meshes(scene, attributes)
+    nodes = meshes + writer.lights(scene.lights) + writer.camera(scene.extras.get("camera"))
     sky = scene.sky.to_extras(folder) if scene.sky is not None else None
     writer.doc.scenes = [gl.Scene(name=scene.name, nodes=nodes, extras={"patchlight": {"sky": sky}} if sky else {})]
     writer.doc.scene = 0
     writer.doc.extras = {"patchlight": jsonable(extras)} if extras else {}
     if lightmap is not None:
-        writer.lightmap(lightmap, meta)
-        if directional is not None:
+        writer.lightmap(lightmap_pages(lightmap), meta, atlas_of)
+        if directional is not None and scene.atlases == 1:
             writer.directional(directional, writer.doc.textures[-1].sampler)
     return writer.finish()
 
@@ -78,25 +81,35 @@ class _GlbWriter:
 
         attributes = {"POSITION": add(scene.positions, "VEC3", bounds=True),
                       "NORMAL": add(scene.normals, "VEC3"), "TEXCOORD_0": add(scene.uv0, "VEC2")}
-        optional = {"TEXCOORD_1": (scene.uv1, "VEC2"), "COLOR_0": (scene.colors, "VEC4"),
+        uv1 = None if scene.uv1 is None else atlas_uv1(scene.uv1, scene.atlases)[0]  # in each atlas
+        optional = {"TEXCOORD_1": (uv1, "VEC2"), "COLOR_0": (scene.colors, "VEC4"),
                     "TANGENT": (scene.tangents, "VEC4")}
         attributes.update({name: add(values, kind) for name, (values, kind) in optional.items() if values is not None})
         return attributes
 
-    def meshes(self, scene: Scene, attributes: dict[str, int]) -> list[int]:
-        """One mesh (and one identity node) per material that has triangles; returns the node indices."""
-        nodes = []
+    def meshes(self, scene: Scene, attributes: dict[str, int]) -> tuple[list[int], dict[int, int]]:
+        """One mesh (and one identity node) per material and atlas that have triangles; returns
+        the node indices and the atlas of each glTF material drawn."""
+        nodes, atlas_of = [], {}
+        atlas = np.zeros(scene.n_triangles, np.int32) if scene.uv1 is None else triangle_atlas(scene)
         for material_id, material in enumerate(scene.materials):
-            triangles = scene.indices[scene.material_ids == material_id]
-            if not len(triangles):
-                continue
-            indices = self.accessor(triangles.astype(np.uint32).ravel(), "SCALAR", ELEMENT_ARRAY_BUFFER)
-            primitive = gl.Primitive(attributes=gl.Attributes(**attributes), indices=indices,
-                                     material=material_id, mode=TRIANGLES)
-            self.doc.meshes.append(gl.Mesh(name=material.name, primitives=[primitive]))
-            self.doc.nodes.append(gl.Node(name=material.name, mesh=len(self.doc.meshes) - 1))
-            nodes.append(len(self.doc.nodes) - 1)
-        return nodes
+            mine = scene.material_ids == material_id
+            for k in np.unique(atlas[mine]):
+                triangles = scene.indices[mine & (atlas == k)]
+                number, name = material_id, material.name
+                if material_id in atlas_of:  # already drawn on an earlier atlas: a copy for this one
+                    name = f"{material.name} (atlas {k})"
+                    self.doc.materials.append(copy.deepcopy(self.doc.materials[material_id]))
+                    number = len(self.doc.materials) - 1
+                    self.doc.materials[number].name = name
+                atlas_of[number] = int(k)
+                indices = self.accessor(triangles.astype(np.uint32).ravel(), "SCALAR", ELEMENT_ARRAY_BUFFER)
+                primitive = gl.Primitive(attributes=gl.Attributes(**attributes), indices=indices,
+                                         material=number, mode=TRIANGLES)
+                self.doc.meshes.append(gl.Mesh(name=name, primitives=[primitive]))
+                self.doc.nodes.append(gl.Node(name=name, mesh=len(self.doc.meshes) - 1))
+                nodes.append(len(self.doc.nodes) - 1)
+        return nodes, atlas_of
 
     def texture(self, png: bytes, name: str | None = None, sampler: int | None = None) -> int:
         self.doc.images.append(gl.Image(bufferView=self.view(png), mimeType="image/png", name=name))
@@ -162,21 +175,26 @@ class _GlbWriter:
                                       rotation=_look_rotation(np.asarray(camera["target"], np.float64) - eye)))
         return [len(self.doc.nodes) - 1]
 
-    def lightmap(self, lightmap: EncodedLightmap, meta: dict) -> None:
-        """The lightmap as texture "patchlight_lightmap" (PNG source, .hdr through MOZ_texture_rgbe),
-        MOZ_lightmap and the occlusionTexture stand-in (baked.lightmap_occlusion) on every material,
-        and its description in the root extras."""
-        description = lightmap_description(lightmap, meta)
-        self.doc.samplers.append(gl.Sampler(**LIGHTMAP_SAMPLER))
-        texture = self.texture(lightmap.png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1)
-        self.doc.images.append(gl.Image(bufferView=self.view(lightmap.hdr), mimeType=HDR_MIME, name=LIGHTMAP_HDR_NAME))
-        self.doc.textures[texture].extensions = {MOZ_RGBE: {"source": len(self.doc.images) - 1}}
-        for material in self.doc.materials:
-            material.extensions = {**(material.extensions or {}), MOZ_LIGHTMAP: lightmap_reference(texture, lightmap)}
+    def lightmap(self, pages: list[EncodedLightmap], meta: dict, atlas_of: dict[int, int]) -> None:
+        """The lightmap as one texture "patchlight_lightmap" per atlas (PNG source, .hdr through
+        MOZ_texture_rgbe), MOZ_lightmap and the occlusionTexture stand-in (baked.lightmap_occlusion)
+        of its atlas's texture on every material, and its description in the root extras."""
+        description = lightmap_description(pages, meta)
+        textures = []
+        for lightmap in pages:
+            self.doc.samplers.append(gl.Sampler(**LIGHTMAP_SAMPLER))
+            textures.append(self.texture(lightmap.png, LIGHTMAP_NAME, sampler=len(self.doc.samplers) - 1))
+            self.doc.images.append(gl.Image(bufferView=self.view(lightmap.hdr), mimeType=HDR_MIME,
+                                            name=LIGHTMAP_HDR_NAME))
+            self.doc.textures[textures[-1]].extensions = {MOZ_RGBE: {"source": len(self.doc.images) - 1}}
+        for number, material in enumerate(self.doc.materials):
+            texture = textures[atlas_of.get(number, 0)]
+            material.extensions = {**(material.extensions or {}),
+                                   MOZ_LIGHTMAP: lightmap_reference(texture, pages[atlas_of.get(number, 0)])}
             material.occlusionTexture = gl.OcclusionTextureInfo(**lightmap_occlusion(texture))
         for name in (MOZ_LIGHTMAP, MOZ_RGBE):
             self.use_extension(name)
-        description["texture"] = texture
+        description.update({"texture": textures[0]} if len(pages) == 1 else {"textures": textures})
         self.doc.extras = {"patchlight": {**self.doc.extras.get("patchlight", {}), "lightmap": description}}
 
     def directional(self, directional: EncodedDirectional, sampler: int) -> None:

@@ -12,10 +12,10 @@ import pygltflib as gl
 from ...errors import PatchlightError
 from ...imaging.io import read_bytes
 from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
-from ..model import Scene
+from ..model import Scene, atlas_uv1, triangle_atlas
 from .container import Document, FLOAT, GLB_MAGIC, POINTS_AND_LINES, TRIANGLES, UINT, attribute_map, document_text, file_stamp, split_glb
 from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
 from .editor import GlbEditor
 
 class SourceWriter(GlbEditor):
@@ -44,6 +44,8 @@ class SourceWriter(GlbEditor):
         self.sets: dict[tuple[int, int], int] = {}  # (mesh, primitive) -> accessor set number
         self.owner: dict[tuple[bytes, int], int] = {}  # (world matrix, set) -> node of the loader's block
         self._blocks: list[_VertexBlock] | None = None
+        self.uv1 = None if scene.uv1 is None else atlas_uv1(scene.uv1, scene.atlases)[0]  # in each atlas
+        self.atlas: dict[int, int] = {}  # id of a written primitive -> the atlas of its triangles
 
     @classmethod
     def open(cls, scene: Scene) -> "SourceWriter | str | None":
@@ -145,7 +147,7 @@ class SourceWriter(GlbEditor):
         block.count = len(positions)
         return positions[block.sources].astype(np.float64)
 
-    def write(self, folder: Path, lightmap: EncodedLightmap | None, meta: dict, unlit: bool = False,
+    def write(self, folder: Path, lightmap: list[EncodedLightmap] | None, meta: dict, unlit: bool = False,
               extras: dict | None = None, directional: EncodedDirectional | None = None) -> bytes:
         """The .glb bytes; folder: where it will live (image sky paths are relative to it)."""
         primitives = self.rewritten_primitives()
@@ -153,7 +155,7 @@ class SourceWriter(GlbEditor):
         self.drop_unused_draco()
         self.root_extras(extras or {})
         if lightmap is not None:
-            self.lightmap(lightmap, meta, primitives, directional)
+            self.lightmap(lightmap_pages(lightmap), meta, primitives, directional)
         if unlit:
             self.mark_unlit()
         self.mark_lights()
@@ -208,6 +210,7 @@ class SourceWriter(GlbEditor):
         triangles_of = {(int(p.triangle_node[t[0]]), int(p.triangle_primitive[t[0]])): t
                         for t in np.split(order, starts[1:]) if len(t)}
         touched = set(p.triangle_mesh.tolist()) | set(self.node_mesh[p.vertex_node].tolist())
+        atlas = np.zeros(scene.n_triangles, np.int32) if scene.uv1 is None else triangle_atlas(scene)
         out = {}
         for node in (n for n in self.instances if self.node_mesh[n] in touched):
             mesh = int(self.node_mesh[node])
@@ -231,6 +234,8 @@ class SourceWriter(GlbEditor):
                     corners = corners[:, [0, 2, 1]] if flip else corners
                     rows = np.searchsorted(block.vertices, corners.ravel())
                     written.append(self.split_primitive(primitive, prepared, block, rows, mesh, k))
+                if triangles is not None:
+                    self.atlas[id(written[-1])] = int(atlas[triangles[0]])
             out[node] = written
         return out
 
@@ -250,7 +255,7 @@ class SourceWriter(GlbEditor):
             rows = block.vertices
         prepared = {}
         if scene.uv1 is not None:
-            uv1 = np.ascontiguousarray(scene.uv1[rows], np.float32)
+            uv1 = np.ascontiguousarray(self.uv1[rows], np.float32)
             own = block.attributes.get("TEXCOORD_1")
             if not (block.same_layout and own is not None
                     and importer.floats(own, (2,), "TEXCOORD_1").tobytes() == uv1.tobytes()):
@@ -327,51 +332,82 @@ class SourceWriter(GlbEditor):
                 if not self.raw[key]:
                     del self.raw[key]
 
-    def lightmap(self, lightmap: EncodedLightmap, meta: dict, primitives: dict[int, list[dict]],
+    def lightmap(self, pages: list[EncodedLightmap], meta: dict, primitives: dict[int, list[dict]],
                  directional: EncodedDirectional | None = None) -> None:
-        """The lightmap: the texture an earlier bake left (re-baking a scene.glb) gets the new
-        images, else a new texture "patchlight_lightmap" (PNG source, .hdr through
-        MOZ_texture_rgbe); MOZ_lightmap on the materials of the triangle primitives written, and
-        the lightmap as their occlusionTexture at strength 0 where they have none of their own;
-        root extras.patchlight.lightmap; the directional lightmap (`directional`)."""
+        """The lightmap: one texture per atlas (`lightmap_texture`, `new_lightmap_texture`);
+        MOZ_lightmap on the materials of the triangle primitives written (a material whose
+        primitives lie on several atlases gets a copy per further atlas, "<name> (atlas k)"),
+        and its atlas's texture as their occlusionTexture at strength 0 where they have none of
+        their own; root extras.patchlight.lightmap; the directional lightmap (`directional`,
+        of a one-atlas bake)."""
         raw = self.raw
-        description = lightmap_description(lightmap, meta)
+        description = lightmap_description(pages, meta)
         extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
         patchlight = extras.get("patchlight") if isinstance(extras.get("patchlight"), dict) else {}
-        old = (patchlight.get("lightmap") or {}).get("texture") if isinstance(patchlight.get("lightmap"), dict) else None
-        textures, images = raw["textures"], raw["images"]
-        png = {"name": LIGHTMAP_NAME, "bufferView": self.add_view(lightmap.png), "mimeType": "image/png"}
-        hdr = {"name": LIGHTMAP_HDR_NAME, "bufferView": self.add_view(lightmap.hdr), "mimeType": HDR_MIME}
-        if (isinstance(old, int) and 0 <= old < len(textures) and textures[old].get("name") == LIGHTMAP_NAME
-                and isinstance(textures[old].get("source"), int) and 0 <= textures[old]["source"] < len(images)):
-            texture = old
-            images[textures[old]["source"]] = png
-            source = ((textures[old].get("extensions") or {}).get(MOZ_RGBE) or {}).get("source")
-            if isinstance(source, int) and 0 <= source < len(images) and images[source].get("name") == LIGHTMAP_HDR_NAME:
-                images[source] = hdr
-            else:
-                images.append(hdr)
-                source = len(images) - 1
+        if len(pages) == 1:
+            description["texture"] = self.lightmap_texture(pages[0], patchlight)
         else:
-            raw["samplers"].append(dict(LIGHTMAP_SAMPLER))
-            images += [png, hdr]
-            textures.append({"name": LIGHTMAP_NAME, "sampler": len(raw["samplers"]) - 1, "source": len(images) - 2})
-            texture, source = len(textures) - 1, len(images) - 1
-        textures[texture]["extensions"] = {**(textures[texture].get("extensions") or {}), MOZ_RGBE: {"source": source}}
-        materials = raw.get("materials") or []
-        lit = {p["material"] for written in primitives.values() for p in written
-               if p.get("mode", TRIANGLES) not in POINTS_AND_LINES and isinstance(p.get("material"), int)}
-        for number in sorted(m for m in lit if 0 <= m < len(materials)):
-            material = materials[number]
-            material["extensions"] = {**(material.get("extensions") or {}), MOZ_LIGHTMAP: lightmap_reference(texture, lightmap)}
+            description["textures"] = [self.new_lightmap_texture(page) for page in pages]
+        atlas_textures = description.get("textures") or [description["texture"]]
+        materials, textures = raw.get("materials") or [], raw["textures"]
+        lit = [p for written in primitives.values() for p in written
+               if p.get("mode", TRIANGLES) not in POINTS_AND_LINES and isinstance(p.get("material"), int)
+               and 0 <= p["material"] < len(materials)]
+        copies: dict[tuple[int, int], int] = {}
+        first: dict[int, int] = {}
+        for primitive in sorted(lit, key=lambda p: self.atlas.get(id(p), 0)):
+            number, atlas = primitive["material"], self.atlas.get(id(primitive), 0)
+            if first.setdefault(number, atlas) != atlas:
+                if (number, atlas) not in copies:
+                    copy = json.loads(json.dumps(materials[number]))
+                    copy["name"] = f"{materials[number].get('name') or f'material {number}'} (atlas {atlas})"
+                    materials.append(copy)
+                    copies[number, atlas] = len(materials) - 1
+                primitive["material"] = copies[number, atlas]
+        for number, atlas in [*sorted(first.items()), *copies]:
+            material = materials[copies.get((number, atlas), number)]
+            texture = atlas_textures[atlas]
+            material["extensions"] = {**(material.get("extensions") or {}),
+                                      MOZ_LIGHTMAP: lightmap_reference(texture, pages[atlas])}
             if "occlusionTexture" not in material or is_lightmap_occlusion(material["occlusionTexture"], textures):
                 material["occlusionTexture"] = lightmap_occlusion(texture)  # the file's own occlusion map stays
         used = raw.setdefault("extensionsUsed", [])
         used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]
-        description["texture"] = texture
         raw["extras"] = {**extras, "patchlight": {**patchlight, "lightmap": description}}
-        self.directional(directional, textures[texture].get("sampler"), [materials[m] for m in sorted(lit)
-                                                                         if 0 <= m < len(materials)])
+        self.directional(directional if len(pages) == 1 else None, textures[atlas_textures[0]].get("sampler"),
+                         [materials[m] for m in sorted(first)])
+
+    def new_lightmap_texture(self, lightmap: EncodedLightmap) -> int:
+        """A new texture "patchlight_lightmap" of one atlas: PNG source, .hdr through MOZ_texture_rgbe."""
+        raw = self.raw
+        images, textures = raw["images"], raw["textures"]
+        raw["samplers"].append(dict(LIGHTMAP_SAMPLER))
+        images += [{"name": LIGHTMAP_NAME, "bufferView": self.add_view(lightmap.png), "mimeType": "image/png"},
+                   {"name": LIGHTMAP_HDR_NAME, "bufferView": self.add_view(lightmap.hdr), "mimeType": HDR_MIME}]
+        textures.append({"name": LIGHTMAP_NAME, "sampler": len(raw["samplers"]) - 1, "source": len(images) - 2,
+                         "extensions": {MOZ_RGBE: {"source": len(images) - 1}}})
+        return len(textures) - 1
+
+    def lightmap_texture(self, lightmap: EncodedLightmap, patchlight: dict) -> int:
+        """The texture of a one-atlas lightmap: the one an earlier bake left (re-baking a
+        scene.glb) with the new images, else a new one."""
+        raw = self.raw
+        old = (patchlight.get("lightmap") or {}).get("texture") if isinstance(patchlight.get("lightmap"), dict) else None
+        textures, images = raw["textures"], raw["images"]
+        if not (isinstance(old, int) and 0 <= old < len(textures) and textures[old].get("name") == LIGHTMAP_NAME
+                and isinstance(textures[old].get("source"), int) and 0 <= textures[old]["source"] < len(images)):
+            return self.new_lightmap_texture(lightmap)
+        images[textures[old]["source"]] = {"name": LIGHTMAP_NAME, "bufferView": self.add_view(lightmap.png),
+                                           "mimeType": "image/png"}
+        hdr = {"name": LIGHTMAP_HDR_NAME, "bufferView": self.add_view(lightmap.hdr), "mimeType": HDR_MIME}
+        source = ((textures[old].get("extensions") or {}).get(MOZ_RGBE) or {}).get("source")
+        if isinstance(source, int) and 0 <= source < len(images) and images[source].get("name") == LIGHTMAP_HDR_NAME:
+            images[source] = hdr
+        else:
+            images.append(hdr)
+            source = len(images) - 1
+        textures[old]["extensions"] = {**(textures[old].get("extensions") or {}), MOZ_RGBE: {"source": source}}
+        return old
 
     def directional(self, directional: EncodedDirectional | None, sampler: int | None, lit: list[dict]) -> None:
         """Each directional layer as the texture named directional_name(layer) (an earlier bake's

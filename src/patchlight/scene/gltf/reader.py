@@ -13,8 +13,9 @@ import pygltflib as gl
 from ...errors import PatchlightError
 from ...imaging.color import srgb_to_linear
 from ...imaging.io import decode_image, read_environment
-from ..model import Light, Material, Objects, Provenance, Scene, vertex_normals
+from ..model import MAX_ATLASES, Light, Material, Objects, Provenance, Scene, stacked_uv1, vertex_normals
 from ..sky import Sky
+from .baked import atlas_of_materials
 from .container import Document, FAN, INDEX_TYPES, LUMENS_PER_WATT, POINTS_AND_LINES, STRIP, TRIANGLES, attribute_map, file_stamp, float_list, read_document
 
 SUPPORTED_REQUIRED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
@@ -245,7 +246,22 @@ class SceneReader(Document):
             vertex_primitive=np.repeat(np.array([b.primitive for b in blocks], np.int32), count),
             vertex_source=np.concatenate([np.arange(n, dtype=np.int32) for n in count]))
         scene.objects = self._objects(scene.provenance.triangle_node)
+        if scene.uv1 is not None:
+            self._stack_atlases(scene)
         return scene
+
+    def _stack_atlases(self, scene: Scene) -> None:
+        """A scene.glb of several lightmap atlases (each material's MOZ_lightmap names its
+        atlas's texture): TEXCOORD_1, per atlas in the file, stacked into one uv1."""
+        count, atlas_of = atlas_of_materials(self.doc.extras, [m.extensions for m in self.doc.materials or []])
+        if count > MAX_ATLASES:
+            raise self.fail(f"{count} lightmap atlases (at most {MAX_ATLASES})")
+        if count == 1:
+            return
+        triangle = np.array([atlas_of.get(int(m), 0) for m in range(len(scene.materials))], np.int32)[scene.material_ids]
+        vertex = np.zeros(len(scene.uv1), np.int32)
+        vertex[scene.indices] = triangle[:, None]
+        scene.uv1, scene.atlases = stacked_uv1(scene.uv1, vertex, count), count
 
     def _objects(self, triangle_node: np.ndarray) -> Objects:
         """One object per mesh instance (node), with the density its extras ask for."""
