@@ -234,3 +234,16 @@ def test_the_validator_finds_no_error_in_a_scene_glb_of_three_atlases(bakes):
         pytest.skip(reason)
     report, = validate(bakes / "three" / "scene.glb")
     assert problems(report) == []
+
+
+def test_directional_maps_of_three_atlases_are_three_files_read_back_stacked(tmp_path):
+    from patchlight.shading.directional import DirectionalLightmap
+
+    maps = np.random.default_rng(5).normal(size=(4, 3 * 6, 7, 3)).astype(np.float32)
+    bakedir.write_directional(tmp_path, DirectionalLightmap("sh", maps), atlases=3)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"lightmap_sh_{k}.exr" for k in range(3)]
+    (tmp_path / bakedir.MARKER).write_text(json.dumps({"atlases": {"count": 3}}))
+    assert np.array_equal(bakedir.read_directional(tmp_path).maps, maps)
+    (tmp_path / bakedir.MARKER).write_text(json.dumps({"atlases": {"count": 0}}))
+    with pytest.raises(PatchlightError, match="atlases count 0"):
+        bakedir.read_directional(tmp_path)
