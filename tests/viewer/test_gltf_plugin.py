@@ -9,7 +9,8 @@ baked, so the plugin turns them off; baked with --keep-lights they stay on in th
 A directional bake (sh and dominant) of a room whose materials carry a normal map of smooth
 bumps: the plugin patches three.js's material so that its picture matches `patchlight render
 --model lightmap-directional --normal-map` within 2/255 on every smooth pixel, and the bumps
-show (the picture differs from the plain lightmap's where the normal map tilts)."""
+show (the picture differs from the plain lightmap's where the normal map tilts). With the
+highlight on, a glossy bumpy Cornell box matches `render ... --specular`, and misses it off."""
 from __future__ import annotations
 
 import json
@@ -59,18 +60,20 @@ def cpu_render(bake_dir, camera: dict, out, *options) -> np.ndarray:
     return np.round(read_image(out) * 255).astype(np.int32)
 
 
-def cpu_and_three(browser, bake_dir, tmp_path, *options) -> tuple[np.ndarray, np.ndarray, dict]:
+def cpu_and_three(browser, bake_dir, tmp_path, *options, specular=(False,)) -> tuple[np.ndarray, np.ndarray, dict]:
     """(CPU picture (H, W, 3), three.js picture (H, W, 4), the three.js materials' maps) of the
     bake from its default camera, int32 0..255: `patchlight render --model lightmap` (or the
-    render `options`), and the viewer's scene.glb view."""
+    render `options`), and the viewer's scene.glb view. specular: the page's lightmap specular
+    (the plugin's highlight) in each three.js picture; with several, a list of pictures."""
     target, _ = open_input(str(bake_dir)).target()
     c = Renderer(target).default_camera().to_json()
     cpu = cpu_render(bake_dir, c, tmp_path / "cpu.png", *(options or ("--model", "lightmap")))
-    spec = {"name": "engine", "model": "lightmap", "engine": True, "camera": c, "width": SIZE, "height": SIZE,
-            "exposure": EXPOSURE}
+    specs = [{"name": f"engine{k}", "model": "lightmap", "engine": True, "lightmap_specular": on, "camera": c,
+              "width": SIZE, "height": SIZE, "exposure": EXPOSURE} for k, on in enumerate(specular)]
     with make_server(target, target_settings(target, model="lightmap"), exposure=EXPOSURE) as server:
-        pictures, log = browser.cases(server.url, [spec], tmp_path)
-    return cpu, pictures["engine"].astype(np.int32), log["engine"]
+        pictures, log = browser.cases(server.url, specs, tmp_path)
+    gpu = [pictures[s["name"]].astype(np.int32) for s in specs]
+    return cpu, gpu if len(gpu) > 1 else gpu[0], log["engine"]
 
 
 def smooth_difference(cpu: np.ndarray, gpu: np.ndarray, what: str, least: float = 0.2) -> int:
@@ -109,11 +112,12 @@ def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_
     assert (gpu[..., :3] - cpu)[covered].mean() > 10
 
 
-def bumpy_room(folder) -> str:
-    """The room as a glTF file whose materials carry a normal map of smooth bumps (a height
-    0.1 sin(2 pi u) sin(2 pi v) over TEXCOORD_0 in metres, tilting the normal by up to 32
-    degrees), with its tangents (TANGENT), so three.js and the CPU build the same frame."""
-    scene = load_scene("room")
+def bumpy_scene(folder, name: str = "room", gloss: bool = False) -> str:
+    """The built-in scene `name` as a glTF file whose materials carry a normal map of smooth
+    bumps (a height 0.1 sin(2 pi u) sin(2 pi v) over TEXCOORD_0 in metres, tilting the normal
+    by up to 32 degrees), with its tangents (TANGENT), so three.js and the CPU build the same
+    frame; with `gloss` a white colour map whose alpha, the gloss, runs 0.2..0.8 along u."""
+    scene = load_scene(name)
     t = 2 * np.pi * (np.arange(64) + 0.5) / 64
     u, v = np.meshgrid(t, t)
     height = 0.1 * 2 * np.pi  # the slope's amplitude
@@ -121,8 +125,11 @@ def bumpy_room(folder) -> str:
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     for material in scene.materials:
         material.normal_texture = (0.5 + 0.5 * n).astype(np.float32)
+        if gloss:
+            material.base_color_texture = np.concatenate(
+                [np.ones_like(n), 0.5 + 0.3 * np.sin(u)[..., None]], axis=-1).astype(np.float32)
     scene.tangents = vertex_tangents(scene.positions, scene.normals, scene.uv0, scene.indices)
-    path = save_baked_glb(scene, folder / "bumpy_room.glb")
+    path = save_baked_glb(scene, folder / f"bumpy_{name}.glb")
     text, blob = split_glb(path.read_bytes(), path)
     doc = json.loads(text)  # bilinear without mipmaps, as the CPU renderer samples textures
     doc["samplers"] = [{"magFilter": 9729, "minFilter": 9729}]
@@ -139,7 +146,7 @@ def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_rende
         pytest.skip(three_missing())
     folder = tmp_path_factory.mktemp("bumpy")
     out = folder / mode
-    assert main(["bake", bumpy_room(folder), "-o", str(out), "--resolution", "128", "--rays", "64",
+    assert main(["bake", bumpy_scene(folder), "-o", str(out), "--resolution", "128", "--rays", "64",
                  "--directional", mode, "--quiet"]) == 0
     cpu, gpu, materials = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map")
     assert materials and all(m["lightMap"] and m["normalMap"] for m in materials.values()), materials
@@ -152,3 +159,24 @@ def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_rende
     print(f"directional {mode} vs the plain lightmap: {np.mean(bumps > 4):.0%} of pixels differ by more than "
           f"4/255, mean {bumps.mean():.1f}/255")
     assert np.mean(bumps > 4) > 0.1 and bumps.mean() > 2
+
+
+def test_the_plugins_highlight_matches_the_cpu_directional_specular(browser, tmp_path_factory, tmp_path):
+    """The Cornell box (no punctual lights: `render --specular` adds the dominant direction's
+    highlight alone) with bumps and a gloss map, baked dominant: with the page's lightmap
+    specular on, the plugin's picture matches `render --model lightmap-directional --normal-map
+    --specular` within 2/255 on smooth pixels; off, the highlight is missing."""
+    if three_missing():
+        pytest.skip(three_missing())
+    folder = tmp_path_factory.mktemp("glossy")
+    out = folder / "dominant"
+    assert main(["bake", bumpy_scene(folder, "cornell", gloss=True), "-o", str(out), "--resolution", "128",
+                 "--rays", "64", "--directional", "dominant", "--quiet"]) == 0
+    cpu, (shiny, dull), _ = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map",
+                                          "--specular", specular=(True, False))
+    assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.15) <= 2
+    covered = dull[..., 3] > 0
+    missing = np.abs(dull[..., :3] - cpu).max(axis=-1)[covered]
+    print(f"without the highlight: {np.mean(missing > 4):.0%} of pixels off by more than 4/255, "
+          f"max {missing.max()}/255")
+    assert np.mean(missing > 4) > 0.05 and missing.max() > 20

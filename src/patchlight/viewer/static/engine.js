@@ -27,3 +27,13 @@ export function engineToneMapping(renderer, exposure) {
   renderer.toneMapping = exposure === null ? THREE.NoToneMapping : THREE.CustomToneMapping;
   renderer.toneMappingExposure = exposure ?? 1;
 }
+
+// The page's 'lightmap: add specular' for scene.glb: the plugin's highlight of the directional
+// lightmap (material.userData.patchlight) on or off on every material that has one.
+export function engineSpecular(scene, on) {
+  scene.traverse((object) => {
+    for (const material of object.isMesh ? [object.material].flat() : []) {
+      if (material.userData.patchlight) material.userData.patchlight.specular.value = on ? 1 : 0;
+    }
+  });
+}

@@ -20,6 +20,12 @@
 //   the lightmap-directional model's: directional_light() of patchlight's GLSL chunk
 //   lightmap_directional.glsl, fetched from options.shaders (default: ../../shaders/ beside this
 //   file, as in the package and the viewer; copy that file along when you copy this one).
+//   With options.specular the baked light also shines: the lightmap-directional model's
+//   highlight (`render --specular`): Blinn-Phong towards the dominant direction as a light of
+//   share x I, exponent the material's extras.shininess (patchlight's default 16), limited by
+//   the gloss (the base colour's alpha when the material has a normal map, else 1). Each such
+//   material's material.userData.patchlight = {specular, shininess} holds the uniforms
+//   ({value}: 0 or 1, the exponent), to change at run time.
 // - KHR_lights_punctual lights whose extras say {"baked": true}: their light is in the lightmap
 //   already, so they are turned off (light.visible = false) unless options.keepBakedLights.
 import { FloatType, HalfFloatType, ShaderChunk } from 'three';
@@ -32,15 +38,27 @@ const CHUNKS = ['blinn_phong.glsl', 'lightmap_directional.glsl'];  // the chunk 
 // three.js's lightmap line (lights_fragment_maps) and what the directional lightmap makes of it:
 // the irradiance for the normal-mapped normal, both normals turned from view into world axes.
 const LIGHTMAP_LINE = 'vec3 lightMapIrradiance = lightMapTexel.rgb * lightMapIntensity;';
-const DIRECTIONAL_LINE = 'vec3 lightMapIrradiance = directional_light( vLightMapUv, lightMapTexel.rgb * lightMapIntensity, '
-  + 'inverseTransformDirection( normal, viewMatrix ), inverseTransformDirection( nonPerturbedNormal, viewMatrix ) );';
+// The highlight goes to the indirect specular light, its I without three.js's pi (MOZ_lightmap's
+// intensity holds it) and its gloss as the CPU model's.
+const DIRECTIONAL_LINE = `vec3 lightMapIrradiance = directional_light( vLightMapUv, lightMapTexel.rgb * lightMapIntensity,
+  inverseTransformDirection( normal, viewMatrix ), inverseTransformDirection( nonPerturbedNormal, viewMatrix ) );
+#ifdef USE_NORMALMAP
+  float directionalGloss = diffuseColor.a;
+#else
+  float directionalGloss = 1.0;
+#endif
+  reflectedLight.indirectSpecular += directional_specular_on * directional_specular( vLightMapUv,
+    lightMapTexel.rgb * lightMapIntensity / PI, inverseTransformDirection( normal, viewMatrix ),
+    inverseTransformDirection( geometryViewDir, viewMatrix ), directionalGloss, directional_shininess );`;
+const DEFAULT_SHININESS = 16;  // patchlight's, for a material without extras.shininess
 
 export class PatchlightPlugin {
-  constructor(parser, { float = false, keepBakedLights = false,
+  constructor(parser, { float = false, keepBakedLights = false, specular = false,
     shaders = new URL('../../shaders/', import.meta.url) } = {}) {
     this.parser = parser;
     this.name = 'MOZ_lightmap';
     this.keepBakedLights = keepBakedLights;
+    this.specular = specular;
     this.shaders = shaders;
     const type = float ? FloatType : HalfFloatType;
     this.hdrLoader = new HDRLoader(parser.options.manager).setDataType(type);
@@ -111,17 +129,26 @@ export class PatchlightPlugin {
                    && occlusion.index === def.extensions?.MOZ_lightmap?.index);
   }
 
-  // The material's lightmap read through the directional lightmap: its shader gets the GLSL chunk
-  // and the maps as directional_map0..3, and three.js's lightmap line reads directional_light().
+  // The material's lightmap read through the directional lightmap: its shader gets the GLSL chunk,
+  // the maps as directional_map0..3 and the highlight's uniforms (material.userData.patchlight),
+  // and three.js's lightmap line reads directional_light() and adds directional_specular().
   applyDirectional(material, { mode, maps, glsl }) {
     const mapsFragment = ShaderChunk.lights_fragment_maps.replace(LIGHTMAP_LINE, DIRECTIONAL_LINE);
     if (mapsFragment === ShaderChunk.lights_fragment_maps) {
       throw new Error('patchlight plugin: this three.js version reads its lightmap differently');
     }
+    const uniforms = {
+      specular: { value: this.specular ? 1 : 0 },
+      shininess: { value: material.userData.shininess ?? DEFAULT_SHININESS },
+    };
+    material.userData.patchlight = uniforms;
     material.onBeforeCompile = (shader) => {
       maps.forEach((map, k) => { shader.uniforms[`directional_map${k}`] = { value: map }; });
+      shader.uniforms.directional_specular_on = uniforms.specular;
+      shader.uniforms.directional_shininess = uniforms.shininess;
+      const declarations = 'uniform float directional_specular_on;\nuniform float directional_shininess;\n';
       shader.fragmentShader = shader.fragmentShader
-        .replace('void main() {', `${mode === 'sh' ? '#define DIRECTIONAL_SH\n' : ''}${glsl}\nvoid main() {`)
+        .replace('void main() {', `${mode === 'sh' ? '#define DIRECTIONAL_SH\n' : ''}${glsl}\n${declarations}void main() {`)
         .replace('#include <lights_fragment_maps>', mapsFragment);
     };
     material.customProgramCacheKey = () => `patchlight-directional-${mode}`;

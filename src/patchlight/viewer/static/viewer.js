@@ -8,7 +8,7 @@ import { constantTexture, loadBundle } from './bundle.js';
 import { CameraRig } from './camera.js';
 import { Inspector, OVERLAYS } from './inspect.js';
 import { PatchPanel, legendRows } from './patchview.js';
-import { engineToneMapping, loadEngineScene } from './engine.js';
+import { engineSpecular, engineToneMapping, loadEngineScene } from './engine.js';
 import { installVolume, volumeUniforms } from './ambient_cube.js';
 import { GroundMapDemo, radiosityUniforms } from './groundmap.js';
 import { ChunkLibrary } from './shaders.js';
@@ -166,7 +166,10 @@ class Viewer {
       material.uniforms.reflectivity.value = st.reflectivity ?? material.userData.reflectivity;
     }
     this.mesh.visible = !(st.engine && this.engineScene);
-    if (this.engineScene) this.engineScene.visible = !this.mesh.visible;
+    if (this.engineScene) {
+      this.engineScene.visible = !this.mesh.visible;
+      engineSpecular(this.engineScene, st.lightmapSpecular);
+    }
     engineToneMapping(this.renderer, this.mesh.visible ? null : st.exposure);
     const u = this.uniforms;
     u.exposure.value = st.exposure;
