@@ -8,7 +8,9 @@ warmed up first, untimed. The recording costs memory (about 50 bytes a ray) and,
 copies are made while the bake runs, some of the bake's time: the ratio errs on the high side.
 Large lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so
 the copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
-scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation.
+scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation and
+the same ratio in CPU seconds (bake's process against bare embreex's), which a shared
+machine's load distorts less than the wall clock.
 Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N ...] [--gather G] [--scenes ...]`.
 """
 from __future__ import annotations
@@ -72,9 +74,9 @@ def trace(es, origins, directions, far):
     return es.run(origins, directions, dists=far, query="OCCLUDED")
 
 
-def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
+def embree_alone(scene, rays: RecordedRays) -> tuple[float, float, float]:
     """Seconds bare embreex needs for all the closest-hit and occlusion rays the bake cast
-    (the recorded ones' time scaled by cast over recorded)."""
+    (the recorded ones' time scaled by cast over recorded), and the CPU seconds of both."""
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
@@ -83,13 +85,16 @@ def embree_alone(scene, rays: RecordedRays) -> tuple[float, float]:
     threads = os.cpu_count() or 1
     pool = ThreadPoolExecutor(threads)
     seconds = {True: 0.0, False: 0.0}
+    cpu = {True: 0.0, False: 0.0}
     for o, d, far in rays.batches:
         bounds = np.linspace(0, len(o), threads + 1).astype(int)
         parts = [(o[a:b], d[a:b], None if far is None else far[a:b].copy()) for a, b in zip(bounds, bounds[1:])]
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         list(pool.map(lambda part: trace(es, *part), parts))
         seconds[far is not None] += time.perf_counter() - start
-    return tuple(seconds[k] * rays.cast[k] / max(rays.recorded(k), 1) for k in (False, True))
+        cpu[far is not None] += time.process_time() - start_cpu
+    scale = {k: rays.cast[k] / max(rays.recorded(k), 1) for k in (False, True)}
+    return seconds[False] * scale[False], seconds[True] * scale[True], sum(cpu[k] * scale[k] for k in scale)
 
 
 def run(name: str, settings: BakeSettings, sample: int) -> None:
@@ -100,11 +105,12 @@ def run(name: str, settings: BakeSettings, sample: int) -> None:
         result = bake(scene, settings)
         total = time.perf_counter() - start
     s = result.stats
-    closest, occlusion = embree_alone(result.scene, rays)
+    closest, occlusion, embree_cpu = embree_alone(result.scene, rays)
     n_closest, n_occlusion = rays.cast[False], rays.cast[True]
     if n_closest + n_occlusion != s["rays_traced"]:  # bare embreex re-traces what the tracer cast
         print(f"(the tracer cast {n_closest + n_occlusion:,} rays, bake.json counts {s['rays_traced']:,})")
     busy = sum(s["cpu_utilisation_per_stage"][k] * t for k, t in s["seconds_per_stage"].items()) / total
+    bake_cpu = busy * total * (os.cpu_count() or 1)
     print(f"\n== {name} {s['resolution'][0]}x{s['resolution'][1]}, {settings.gather} "
           f"({s['rays_per_patch']} rays/patch)")
     print(f"patches {s['patches']}: computed {s['computed_patches']}, interpolated {s['interpolated_patches']}, "
@@ -120,6 +126,8 @@ def run(name: str, settings: BakeSettings, sample: int) -> None:
           f"{occlusion:.3f} s ({n_occlusion / max(occlusion, 1e-9) / 1e6:.2f} Mrays/s)"
           f"{f', from 1 call in {sample}' if sample > 1 else ''}; "
           f"bake / embreex = {total / (closest + occlusion):.2f}")
+    print(f"CPU seconds: bake {bake_cpu:.1f}, embreex {embree_cpu:.1f}, bake / embreex = {bake_cpu / embree_cpu:.2f} "
+          f"(less sensitive to other people's load than the wall-clock ratio)")
 
 
 def main() -> None:

@@ -22,7 +22,8 @@ from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel, two_sided_triangles
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
-from .radiosity.memory import check_bake_memory, estimate_peak_bytes, form_factor_budget, peak_resident_bytes
+from .radiosity.memory import (check_bake_memory, estimate_peak_bytes, estimate_seconds, form_factor_budget,
+                               peak_resident_bytes)
 from .radiosity.sampling import gather_adaptive, walled_inside
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
 from .rays.tracer import Tracer
@@ -47,10 +48,11 @@ class BakeResult:
     walled: np.ndarray | None = None
     directional: DirectionalLightmap | None = None
 
-    def pass_images(self) -> list[np.ndarray]:
-        """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is."""
+    def pass_images(self):
+        """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is, one at a
+        time (a generator: a large lightmap's passes never sit in memory at full precision)."""
         inside = self.status == adaptive.INSIDE
-        return [fill_lightmap(self.patches, I, inside, self.walled) for I in self.pass_incident]
+        return (fill_lightmap(self.patches, I, inside, self.walled) for I in self.pass_incident)
 
     @property
     def valid(self) -> np.ndarray:
@@ -120,14 +122,14 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     available = available_memory()  # read once, before the bake holds any of it
     cluster = _join_cluster(settings.ray)
     if settings.resolution is not None:
-        check_bake_memory(settings.resolution, settings.resolution, settings.texel_samples, available)
+        check_bake_memory(settings.resolution, settings.resolution, available)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding, densities=settings.density, max_atlas=settings.max_atlas)
-        check_bake_memory(width, height, settings.texel_samples, available)
+        check_bake_memory(width, height, available)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
@@ -155,7 +157,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                 gatherer.emitters, gatherer.nee_samples = emitters, samples
         rays_direct = tracer.rays_traced
         gatherer.cluster = cluster
-        budget = form_factor_budget(width, height, settings.max_memory, settings.texel_samples, available)
+        budget = form_factor_budget(width, height, settings.max_memory, available)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
         status, order = gather_adaptive(ff, patches, direct, settings, progress)
@@ -208,8 +210,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
         "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
-        "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget, settings.texel_samples),
+        "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget),
                    "peak_resident_bytes": peak_resident_bytes()},
+        "estimated_seconds": estimate_seconds(width, height),
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
         "change_to_come": to_come if math.isfinite(to_come) else None,  # None: not known yet

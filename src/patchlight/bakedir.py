@@ -286,7 +286,7 @@ class Texels:
 
     def to_bytes(self) -> bytes:
         buffer = io.BytesIO()
-        np.savez_compressed(buffer, passes=self.passes.astype(np.float16), status=self.status.astype(np.int8),
+        np.savez_compressed(buffer, passes=self.passes.astype(np.float16, copy=False), status=self.status.astype(np.int8),
                             chart=self.chart.astype(np.int32), rho=self.rho.astype(np.float32),
                             emission=self.emission.astype(np.float32), excident=self.excident.astype(np.float32))
         return buffer.getvalue()
@@ -295,7 +295,10 @@ class Texels:
 def texels_of(result) -> Texels:
     """The texels.npz arrays of a patchlight.bake.BakeResult."""
     p = result.patches
-    return Texels(np.stack(result.pass_images()).astype(np.float16), p.to_image(result.status),
+    passes = np.empty((len(result.pass_incident), p.height, p.width, 3), np.float16)
+    for i, image in enumerate(result.pass_images()):
+        passes[i] = image
+    return Texels(passes, p.to_image(result.status),
                   p.to_image(p.chart, fill=-1), p.to_image(p.rho), p.to_image(p.emission),
                   p.to_image(result.solution.excident.astype(np.float32)))
 

@@ -1,5 +1,7 @@
 """When the form-factor matrix would not fit, passes re-gather its rows: slower, bounded
 memory, the same answer."""
+import re
+
 import numpy as np
 import pytest
 
@@ -48,10 +50,14 @@ def test_the_estimate_refuses_what_would_not_fit_and_names_a_resolution_that_wou
 
     base = estimate_bake_bytes(0, 0)
     assert estimate_bake_bytes(2048, 1024) - base == 2 * (estimate_bake_bytes(1024, 1024) - base) > 0
-    assert estimate_bake_bytes(1024, 1024, texel_samples=4) > estimate_bake_bytes(1024, 1024)
     check_bake_memory(64, 64, available=10**12)
-    with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about .* lower --resolution \(about 1"):
+    with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about [\d.]+ GiB \(and about \d+ "
+                                              r"minutes\) .* lower --resolution \(about 1") as refused:
         check_bake_memory(4096, 4096, available=2**30)
+    side = int(re.search(r"about (\d+)\)", str(refused.value)).group(1))
+    check_bake_memory(side, side, available=2**30)  # the resolution it names fits
+    with pytest.raises(PatchlightError):
+        check_bake_memory(side + 64, side + 64, available=2**30)  # and is about the largest that does
     # F gets what the rest leaves, never more than --max-memory, never below zero
     assert form_factor_budget(1024, 1024, 8 << 30, available=4 << 30) == int(HEADROOM * (4 << 30)
                                                                              - estimate_bake_bytes(1024, 1024))
