@@ -44,7 +44,13 @@ def written(tmp_path_factory) -> dict:
                               ("of a directional bake, directional sh", root / "room directional sh" / "scene.glb", "sh")):
         assert main(["bake", str(scene), "-o", str(root / name), "--resolution", "64", "--directional", mode, *QUICK]) == 0
         files[f"bake {name}"] = root / name / "scene.glb"
-    for name, target in (("of a bake", root / "room"), ("of a built-in", "cornell"), ("of a glTF", source)):
+    directional = root / "room directional sh" / "scene.glb"
+    for name, options in (("dominant", ["--directional", "dominant"]), ("none", [])):
+        out = root / f"directional sh, again {name}"
+        assert main(["bake", str(directional), "-o", str(out), "--resolution", "64", *options, *QUICK]) == 0
+        files[f"bake of a directional bake, {name}"] = out / "scene.glb"
+    for name, target in (("of a bake", root / "room"), ("of a built-in", "cornell"), ("of a glTF", source),
+                         ("of a directional bake", root / "room directional sh")):
         out = root / f"vertex {name}.glb"
         assert main(["vertexbake", str(target), "-o", str(out), "--quiet"]) == 0
         files[f"vertexbake {name}"] = out
@@ -143,7 +149,8 @@ def test_vertexbake_of_a_bake_drops_the_occlusion_stand_in(written):
 def test_directional_bakes_reference_their_maps_from_every_lit_material(written):
     for name, layers in (("bake room directional sh", ["L0", "L1x", "L1y", "L1z"]),
                          ("bake gltf directional dominant", [""]),
-                         ("bake of a directional bake, directional sh", ["L0", "L1x", "L1y", "L1z"])):
+                         ("bake of a directional bake, directional sh", ["L0", "L1x", "L1y", "L1z"]),
+                         ("bake of a directional bake, dominant", [""])):
         doc = document(written[name])
         assert {"PATCHLIGHT_lightmap_directional", "PATCHLIGHT_texture_exr"} <= set(doc["extensionsUsed"]), name
         assert "PATCHLIGHT_lightmap_directional" not in doc.get("extensionsRequired", []), name
@@ -157,3 +164,32 @@ def test_directional_bakes_reference_their_maps_from_every_lit_material(written)
             assert all(i["mimeType"] == "image/x-exr" and "source" not in t for i, t in zip(images, textures)), name
     rebaked = document(written["bake of a directional bake, directional sh"])  # the earlier maps' textures reused
     assert sum(t.get("name", "").startswith("patchlight_directional") for t in rebaked["textures"]) == 4
+
+
+
+def test_a_re_bake_leaves_no_earlier_maps_behind(written):
+    """Re-baking a directional bake (sh) with dominant, without --directional, or vertexbake:
+    the maps nothing uses any more are gone, textures and images (their bytes with them), and
+    the extensions only they used; the validator reports none of the bake's maps unused."""
+    cases = {"bake of a directional bake, dominant": ({"patchlight_directional"}, {"PATCHLIGHT_texture_exr"}),
+             "bake of a directional bake, none": (set(), set()),
+             "vertexbake of a directional bake": (set(), set()), "vertexbake of a bake": (set(), set())}
+    bake_names = {"patchlight_lightmap", "patchlight_lightmap_hdr"}
+    reports = validate(*(written[name] for name in cases))
+    for (name, (directional, extensions)), report in zip(cases.items(), reports):
+        doc = document(written[name])
+        lightmap = set() if name.startswith("vertexbake") else bake_names
+        textures = [t.get("name") for t in doc.get("textures", [])]
+        assert sorted(textures) == sorted((lightmap - {"patchlight_lightmap_hdr"}) | directional), (name, textures)
+        images = [i.get("name") for i in doc.get("images", [])]
+        assert sorted(images) == sorted(lightmap | directional), (name, images)
+        assert {"PATCHLIGHT_lightmap_directional", "PATCHLIGHT_texture_exr"} & set(doc.get("extensionsUsed", [])) \
+            == ({"PATCHLIGHT_lightmap_directional"} | extensions if directional else set()), name
+        # unused in the validator's eyes: only what the bake's own extensions name (it knows them not)
+        known = {f"/textures/{m['index']}" for material in doc["materials"]
+                 for m in material.get("extensions", {}).get("PATCHLIGHT_lightmap_directional", {}).get("maps", [])}
+        known |= {f"/images/{e['source']}" for t in doc.get("textures", []) for key, e in t.get("extensions", {}).items()
+                  if key in ("PATCHLIGHT_texture_exr", "MOZ_texture_rgbe")}
+        unused = {m["pointer"] for m in report["messages"] if m["code"] == "UNUSED_OBJECT"
+                  and m["pointer"].startswith(("/textures/", "/images/"))}
+        assert report["errors"] == 0 and unused <= known, (name, unused - known)

@@ -92,6 +92,14 @@ def directional_name(layer: str) -> str:
     return f"{DIRECTIONAL_NAME}_{layer}" if layer else DIRECTIONAL_NAME
 
 
+def is_bake_map(item) -> bool:
+    """Whether a texture or image (JSON) is one a bake writes, the lightmap's or a directional
+    layer's, by its name (a re-bake drops those nothing refers to any more)."""
+    name = item.get("name") if isinstance(item, dict) else None
+    return isinstance(name, str) and (name in (LIGHTMAP_NAME, LIGHTMAP_HDR_NAME, DIRECTIONAL_NAME)
+                                      or name.startswith(DIRECTIONAL_NAME + "_"))
+
+
 def directional_reference(textures: list[int], directional: EncodedDirectional) -> dict:
     """A material's PATCHLIGHT_lightmap_directional extension: the layers' textures in order."""
     return {"mode": directional.mode, "maps": [{"index": t, "texCoord": 1} for t in textures],

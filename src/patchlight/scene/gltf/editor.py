@@ -29,7 +29,7 @@ class GlbEditor:
         """Images in files beside a .gltf that a texture uses move into the .glb, their bytes
         unchanged (a data: URI stays as it is; an image that cannot be read, or that nothing
         uses, keeps its uri and is never read)."""
-        used = _used_images(self.raw)
+        used = {holder[key] for holder, key in self.image_references()}
         for number, image in enumerate(self.raw["images"]):
             uri = image.get("uri")
             if not isinstance(uri, str) or uri.startswith("data:") or number not in used:
@@ -91,13 +91,65 @@ class GlbEditor:
                                  normalized=bool(original.get("normalized")),
                                  bounds=bounds or "min" in original or "max" in original)
 
+    def knows_every_reference(self) -> bool:
+        """Whether every extension the file uses is one whose references this writer knows."""
+        used_extensions = set(self.raw.get("extensionsUsed") or [])
+        return all(e in _KNOWN_EXTENSIONS or e.startswith("KHR_materials_") for e in used_extensions)
+
+    def drop_unreferenced(self, owned) -> None:
+        """Drop the textures, then the images, for which owned(JSON) is true and that nothing
+        refers to any more (an earlier bake's maps), renumbering the references to the rest.
+        Skipped, as `compact`, when the file uses an extension this writer does not know, or
+        refers to a texture or image that does not exist."""
+        if self.knows_every_reference():
+            self._drop(self.raw["textures"], owned, _distinct(self.texture_references()))
+            self._drop(self.raw["images"], owned, _distinct(self.image_references()))
+
+    @staticmethod
+    def _drop(items: list, owned, references: list[tuple[dict, str]]) -> None:
+        """Remove the owned, unreferenced items of `items` in place and renumber `references`."""
+        referenced = {holder[key] for holder, key in references}
+        if not referenced <= set(range(len(items))):
+            return
+        kept = [k for k, item in enumerate(items) if k in referenced or not owned(item)]
+        renumbered = {old: new for new, old in enumerate(kept)}
+        for holder, key in references:
+            holder[key] = renumbered[holder[key]]
+        items[:] = [items[k] for k in kept]
+
+    def texture_references(self):
+        """(holder dict, key) of every texture reference: a texture info ("index") anywhere in a
+        material (extensions included), and the bake description's lightmap texture or atlas
+        textures (holder: their list)."""
+        pending = list(self.raw.get("materials") or [])
+        while pending:
+            item = pending.pop()
+            if isinstance(item, list):
+                pending += item
+            elif isinstance(item, dict):
+                if isinstance(item.get("index"), int) and not isinstance(item["index"], bool):
+                    yield item, "index"
+                pending += [v for k, v in item.items() if k != "extras" and isinstance(v, (dict, list))]
+        lightmap = ((self.raw.get("extras") or {}).get("patchlight") or {}).get("lightmap")
+        if isinstance(lightmap, dict) and isinstance(lightmap.get("texture"), int):
+            yield lightmap, "texture"
+        atlases = lightmap.get("textures") if isinstance(lightmap, dict) else None
+        if isinstance(atlases, list):
+            yield from ((atlases, k) for k, texture in enumerate(atlases) if isinstance(texture, int))
+
+    def image_references(self):
+        """(holder dict, key) of every image reference: a texture's source and its extensions'."""
+        for texture in self.raw["textures"]:
+            if isinstance(texture, dict):
+                holders = [texture] + [e for e in (texture.get("extensions") or {}).values() if isinstance(e, dict)]
+                yield from ((h, "source") for h in holders if isinstance(h.get("source"), int))
+
     def compact(self) -> None:
         """Drop accessors and bufferViews nothing refers to any more (the replaced vertices), and
         renumber the references.  Skipped when the file uses an extension whose references to
         accessors or views this writer does not know: then everything stays, unused or not."""
         raw = self.raw
-        used_extensions = set(raw.get("extensionsUsed") or [])
-        if any(not (e in _KNOWN_EXTENSIONS or e.startswith("KHR_materials_")) for e in used_extensions):
+        if not self.knows_every_reference():
             self.view_order = list(range(len(raw["bufferViews"])))
             return
         references = _distinct(self.accessor_references())
@@ -188,14 +240,6 @@ def _distinct(references) -> list[tuple[dict, str]]:
     return out
 
 
-def _used_images(raw: dict) -> set[int]:
-    """Indices of the images some texture names as its source (or an extension's source)."""
-    used = set()
-    for texture in raw.get("textures") or []:
-        if isinstance(texture, dict):
-            sources = [texture] + [e for e in (texture.get("extensions") or {}).values() if isinstance(e, dict)]
-            used.update(s["source"] for s in sources if isinstance(s.get("source"), int))
-    return used
 
 
 def _image_mime(data: bytes) -> str | None:

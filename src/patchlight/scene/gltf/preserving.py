@@ -14,7 +14,7 @@ from ...imaging.io import read_bytes
 from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene, atlas_uv1, triangle_atlas
 from .container import Document, FLOAT, GLB_MAGIC, POINTS_AND_LINES, TRIANGLES, UINT, attribute_map, document_text, file_stamp, split_glb
-from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
+from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference, is_bake_map
 from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
 from .editor import GlbEditor
 
@@ -161,8 +161,19 @@ class SourceWriter(GlbEditor):
         self.mark_lights()
         self.sky(folder)
         self.embed_external_images()
+        self.drop_unreferenced(is_bake_map)
+        self.drop_unused_extensions()
         self.compact()
         return self.container()
+
+    def drop_unused_extensions(self) -> None:
+        """The bake's texture and material extensions left out of extensionsUsed where no
+        texture or material has them any more (a re-bake without directional maps, vertexbake)."""
+        used = self.raw.get("extensionsUsed")
+        holders = [h for h in (self.raw.get("textures") or []) + (self.raw.get("materials") or []) if isinstance(h, dict)]
+        for name in (MOZ_LIGHTMAP, MOZ_RGBE, DIRECTIONAL, EXR):
+            if isinstance(used, list) and name in used and not any(name in (h.get("extensions") or {}) for h in holders):
+                used.remove(name)
 
     def root_extras(self, extras: dict) -> None:
         """`extras` merged into the root extras.patchlight."""
@@ -191,9 +202,6 @@ class SourceWriter(GlbEditor):
             material["extensions"].pop(DIRECTIONAL, None)
             if is_lightmap_occlusion(material.get("occlusionTexture"), self.raw.get("textures") or []):
                 del material["occlusionTexture"]
-        for name in (MOZ_LIGHTMAP, DIRECTIONAL):
-            if name in (self.raw.get("extensionsUsed") or []):
-                self.raw["extensionsUsed"].remove(name)
         patchlight = (self.raw.get("extras") or {}).get("patchlight")
         if isinstance(patchlight, dict):
             patchlight.pop("lightmap", None)
@@ -415,13 +423,11 @@ class SourceWriter(GlbEditor):
         PATCHLIGHT_lightmap_directional on the lit materials; without one, an earlier bake's
         reference goes."""
         raw = self.raw
-        used = raw.setdefault("extensionsUsed", [])
         if directional is None:
             for material in lit:
                 (material.get("extensions") or {}).pop(DIRECTIONAL, None)
-            if DIRECTIONAL in used and not any(DIRECTIONAL in (m.get("extensions") or {}) for m in raw.get("materials") or []):
-                used.remove(DIRECTIONAL)
             return
+        used = raw.setdefault("extensionsUsed", [])
         textures, images = raw["textures"], raw["images"]
         named = {t.get("name"): k for k, t in enumerate(textures) if isinstance(t, dict)}
         indices = []
