@@ -228,12 +228,23 @@ def test_three_js_shows_each_material_with_its_own_atlas(browser, bakes, tmp_pat
     assert smooth_difference(cpu, gpu, "three atlases: plugin vs CPU") <= 2
 
 
-def test_the_validator_finds_no_error_in_a_scene_glb_of_three_atlases(bakes):
+def test_a_scene_glb_of_three_atlases_bakes_again_on_its_own_uvs_and_validates(bakes):
+    """Re-baking scene.glb keeps its TEXCOORD_1, stacked again: the same three atlases and
+    texels; the earlier bake's lightmap textures get the new images. The Khronos validator
+    finds no error in either file."""
+    from patchlight.scene.gltf.container import split_glb
+
+    again = bakes / "again"
+    assert main(["bake", str(bakes / "three" / "scene.glb"), "-o", str(again), "--max-atlas", "96", *QUICK]) == 0
+    first, second = (json.loads((bakes / name / "bake.json").read_text()) for name in ("three", "again"))
+    assert second["uv"]["uv_source"] == "TEXCOORD_1" and second["atlases"] == first["atlases"]
+    doc = json.loads(split_glb((again / "scene.glb").read_bytes(), again / "scene.glb")[0])
+    assert [t["name"] for t in doc["textures"]].count("patchlight_lightmap") == 3
     reason = validator_missing()
     if reason:
         pytest.skip(reason)
-    report, = validate(bakes / "three" / "scene.glb")
-    assert problems(report) == []
+    for report in validate(bakes / "three" / "scene.glb", again / "scene.glb"):
+        assert problems(report) == [], report["file"]
 
 
 def test_directional_maps_of_three_atlases_are_three_files_read_back_stacked(tmp_path):

@@ -352,11 +352,10 @@ class SourceWriter(GlbEditor):
         description = lightmap_description(pages, meta)
         extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
         patchlight = extras.get("patchlight") if isinstance(extras.get("patchlight"), dict) else {}
-        if len(pages) == 1:
-            description["texture"] = self.lightmap_texture(pages[0], patchlight)
-        else:
-            description["textures"] = [self.new_lightmap_texture(page) for page in pages]
-        atlas_textures = description.get("textures") or [description["texture"]]
+        old = patchlight.get("lightmap") if isinstance(patchlight.get("lightmap"), dict) else {}
+        old = old.get("textures") if isinstance(old.get("textures"), list) else [old.get("texture")]
+        atlas_textures = [self.lightmap_texture(page, old[k] if k < len(old) else None) for k, page in enumerate(pages)]
+        description.update({"texture": atlas_textures[0]} if len(pages) == 1 else {"textures": atlas_textures})
         materials, textures = raw.get("materials") or [], raw["textures"]
         lit = [p for written in primitives.values() for p in written
                if p.get("mode", TRIANGLES) not in POINTS_AND_LINES and isinstance(p.get("material"), int)
@@ -396,11 +395,10 @@ class SourceWriter(GlbEditor):
                          "extensions": {MOZ_RGBE: {"source": len(images) - 1}}})
         return len(textures) - 1
 
-    def lightmap_texture(self, lightmap: EncodedLightmap, patchlight: dict) -> int:
-        """The texture of a one-atlas lightmap: the one an earlier bake left (re-baking a
-        scene.glb) with the new images, else a new one."""
+    def lightmap_texture(self, lightmap: EncodedLightmap, old) -> int:
+        """The texture of one atlas: `old`, the one an earlier bake left for it (re-baking a
+        scene.glb), with the new images, else a new one."""
         raw = self.raw
-        old = (patchlight.get("lightmap") or {}).get("texture") if isinstance(patchlight.get("lightmap"), dict) else None
         textures, images = raw["textures"], raw["images"]
         if not (isinstance(old, int) and 0 <= old < len(textures) and textures[old].get("name") == LIGHTMAP_NAME
                 and isinstance(textures[old].get("source"), int) and 0 <= textures[old]["source"] < len(images)):
