@@ -1,6 +1,8 @@
 """The package's layers, enforced: every import inside patchlight goes down the layer order
 (docs/architecture.md, "Layers"), never up or sideways, no private name or module is imported
-across packages, and no CLI subcommand imports another.
+across packages, no private name across modules (a package's own private modules, such as its
+`_kernels`, excepted) nor any object's private attribute outside its class, and no CLI
+subcommand imports another.
 
 Imports are read from the source with ast, so lazy imports inside functions count too."""
 from __future__ import annotations
@@ -129,6 +131,31 @@ def test_no_private_imports_across_packages():
             if hidden:
                 private.append(f"{path.relative_to(ROOT)}:{line} imports {'.'.join(target)} {names}")
     assert not private, "private modules or names imported from another package:\n" + "\n".join(private)
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def test_no_private_names_across_modules():
+    """`from .uvs import _edge_codes` or `gatherer._see(...)`: a private name used outside the
+    module (or class) that owns it. Attributes of modules from outside patchlight (os._exit)
+    are the standard library's business."""
+    private = []
+    for path in _sources():
+        tree = ast.parse(path.read_text(), str(path))
+        outside = {(a.asname or a.name).split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import)
+                   for a in node.names if a.name.split(".")[0] != "patchlight"}
+        for target, names, line in _imports(path):
+            if any(_private(n) for n in names):
+                private.append(f"{path.relative_to(ROOT)}:{line} imports {[n for n in names if _private(n)]} "
+                               f"from {'.'.join(target)}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr):
+                owner = node.value.id if isinstance(node.value, ast.Name) else None
+                if owner not in ("self", "cls") and owner not in outside:
+                    private.append(f"{path.relative_to(ROOT)}:{node.lineno} uses {ast.unparse(node)}")
+    assert not private, "private names used outside their module or class:\n" + "\n".join(private)
 
 
 def test_cli_subcommands_do_not_import_one_another():

@@ -1,21 +1,119 @@
-"""The bake settings are declared once (config.setting on each field of BakeSettings): the
-checks, the --help texts and the documented tables must all say what the declarations say."""
+"""Every settings class is declared once (config.setting on each field): the checks, the
+--help texts, the command line's errors and the documented tables must all say what the
+declarations say."""
 from __future__ import annotations
 
+import math
 import re
+from dataclasses import MISSING
 from pathlib import Path
 
 import pytest
 
 from patchlight.cli.parser import build_parser
-from patchlight.config import BakeSettings, settings_table
+from patchlight.config import BakeSettings, declared, settings_table
 from patchlight.errors import SettingError
+from patchlight.ground.groundmap import GroundMapSettings
+from patchlight.normalmap import NormalMapSettings
+from patchlight.render.camera import Camera
+from patchlight.shading.models import ShadingSettings
+from patchlight.volumes.grid import GridSettings
+from patchlight.volumes.probes import VolumeSettings
 
 REPO = Path(__file__).resolve().parents[1]
+SETTINGS = (BakeSettings, VolumeSettings, GridSettings, GroundMapSettings, ShadingSettings, Camera, NormalMapSettings)
+REQUIRED = {Camera: {"eye": (0.0, 1.0, 5.0), "target": (0.0, 0.0, 0.0)}}  # fields without a default
+COMMANDS = {"bake": (BakeSettings,), "volume": (VolumeSettings, GridSettings), "groundmap": (GroundMapSettings,),
+            "normalmap": (NormalMapSettings,), "render": (ShadingSettings, Camera), "view": (ShadingSettings,)}
 
 
-def test_docs_hold_the_table_the_declarations_make():
-    assert settings_table() in (REPO / "docs" / "settings.md").read_text()
+def make(cls, **changes):
+    """An instance of a settings class, validated: its defaults (REQUIRED where it has none) changed by `changes`."""
+    settings = cls(**{**REQUIRED.get(cls, {}), **changes})
+    settings.validate()
+    return settings
+
+
+def probes(meta: dict) -> tuple[list, list]:
+    """(values the declaration accepts, values it refuses), at the edges of its range."""
+    lo, hi, step = meta["lo"], meta["hi"], 1 if meta["whole"] else 1e-3
+    accepted, refused = list(meta["choices"]), ["no such choice"] if meta["choices"] else []
+    if lo is not None:
+        (refused if meta["lo_open"] else accepted).append(lo)
+        refused.append(lo - step * (2 if meta["even"] else 1))
+        accepted.append(lo + step * (2 if meta["even"] else 1))
+    if hi is not None:
+        (refused if meta["hi_open"] else accepted).append(hi)
+        refused.append(hi + step * (2 if meta["even"] else 1))
+    if lo is not None or hi is not None:
+        refused += [math.nan, True] + ([(lo if lo is not None else hi) + 0.5] if meta["whole"] else [])
+    if meta["length"]:
+        accepted, refused = [tuple(v for _ in range(meta["length"])) for v in accepted], \
+                            [tuple(v for _ in range(meta["length"])) for v in refused] + [(1.0,) * (meta["length"] + 1)]
+        if lo is None and hi is None:
+            accepted, refused = [(0.5,) * meta["length"]], [(math.inf,) * meta["length"], (1.0,) * (meta["length"] - 1)]
+    if meta["each"]:
+        accepted, refused = [{"room": v} for v in accepted], [{"room": v} for v in refused] + [0.5]
+    if meta["none"]:
+        accepted.append(None)
+    return accepted, refused
+
+
+def test_docs_hold_the_tables_the_declarations_make():
+    text = (REPO / "docs" / "settings.md").read_text()
+    for cls in SETTINGS:
+        assert f"## {cls.__name__}\n" in text and settings_table(cls) in text, f"docs/settings.md: {cls.__name__}"
+
+
+@pytest.mark.parametrize("cls", SETTINGS, ids=lambda c: c.__name__)
+def test_every_settings_class_validates_exactly_its_declarations(cls):
+    for f in declared(cls):
+        accepted, refused = probes(f.metadata)
+        if cls is Camera and f.name in ("eye", "target"):
+            accepted = [v for v in accepted if v != (0.5,) * 3] + [(0.5, 0.7, 0.25)]  # not the other point
+        for value in accepted:
+            make(cls, **{f.name: value})
+        for value in refused:
+            with pytest.raises(SettingError) as err:
+                make(cls, **{f.name: value})
+            assert err.value.field == f.name and str(err.value).startswith(f"{f.name}: "), (f.name, value)
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_each_flag_of_a_declared_field_shows_its_meaning_and_default(command):
+    parser = build_parser().commands[command]
+    shown = 0
+    for cls in COMMANDS[command]:
+        for f in declared(cls):
+            action = next((a for a in parser._actions if a.dest == f.name and a.option_strings), None)
+            if action is None or f.metadata["unit"] == "bool" or action.help is None or "%(default)" not in action.help:
+                continue
+            text = re.sub(r"\s+", " ", action.help % {"default": action.default})
+            assert f.metadata["meaning"] in text, (command, action.option_strings)
+            default = f.default if f.default is not MISSING else None
+            if command == "bake" and f.name == "max_memory":  # the flag counts GiB
+                default /= 2**30
+            if default is not None:
+                assert action.default == default and f"(default {default})" in text, (command, action.option_strings)
+            shown += 1
+    assert shown or command in ("render", "view")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_the_command_line_names_the_flag_where_the_library_names_the_field(command):
+    """Every declared field a command has a flag for: its SettingError reads as that flag."""
+    parser = build_parser().commands[command]
+    for cls in COMMANDS[command]:
+        for f in declared(cls):
+            flag = parser.flag(f.name)
+            refused = probes(f.metadata)[1]
+            if flag is None or not refused:
+                continue
+            with pytest.raises(SettingError) as err:
+                make(cls, **{f.name: refused[0]})
+            line = parser.user_line(err.value)
+            assert str(err.value).startswith(f"{f.name}: ") and "--" not in str(err.value)
+            assert line.startswith(f"{flag} ") and f": {f.name.replace('_', ' ')} must be" in line, line
 
 
 @pytest.mark.parametrize("name, accepted, refused", [

@@ -20,12 +20,13 @@ from .progress import Progress
 from .radiosity import adaptive
 from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
-from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel, two_sided_triangles
+from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel
 from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
 from .radiosity.memory import (check_bake_memory, estimate_peak_bytes, estimate_seconds, form_factor_budget,
                                peak_resident_bytes)
 from .radiosity.sampling import gather_adaptive, walled_inside
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
+from .rays.inside import two_sided_triangles
 from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
@@ -65,7 +66,7 @@ def _check_scene(scene: Scene) -> None:
     if not scene.has_light():
         kept = " (the lights kept dynamic are not baked)" if len(scene.baked_lights) < len(scene.lights) else ""
         raise PatchlightError(f"{scene.label}: nothing lights the scene{kept} "
-                              "(no sun, no lamp, no emissive material, no sky); add one or pass --sky R,G,B")
+                              "(no sun, no lamp, no emissive material, no sky); add one or pass `sky` R,G,B")
 
 
 def _input_warnings(scene: Scene) -> list[str]:

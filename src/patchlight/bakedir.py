@@ -11,9 +11,9 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
     lightmap.png    the lightmap exposed for display (sRGB)
     adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
     texels.npz      every pass and the per-texel arrays the viewer reads (Texels below)
-    pass_NN.png     the lightmap after each pass (--save-passes)
+    pass_NN.png     the lightmap after each pass (save_passes)
     lightmap_sh.exr or lightmap_dir.exr
-                    the directional lightmap, if the bake made one (--directional;
+                    the directional lightmap, if the bake made one (directional;
                     shading.directional: layers L0, L1x, L1y, L1z of RGB, or the dominant
                     direction as RGB)
     bake.json       the summary: settings, sky, statistics, the atlases, the list of files

@@ -2,13 +2,14 @@
 
 
 class PatchlightError(Exception):
-    """Bad input or an impossible request. The message is one line for the user."""
-
+    """Bad input or an impossible request. The message is one line for the user. It names
+    settings by their field names, in backquotes (`texels_per_unit`); the command line names
+    the flags that set them instead (cli/parser.py `user_line`)."""
 
 
 class SettingError(PatchlightError):
     """A setting outside what its field accepts. Names the field (`field`, `value`, `problem`);
-    the command line names the flag that set it instead (cli/main.py)."""
+    the command line names the flag that set it instead."""
 
     def __init__(self, field: str, value, problem: str):
         super().__init__(f"{field}: {value!r} {problem}")

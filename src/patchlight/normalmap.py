@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .atlas.raster import texel_surface_points
+from .config import setting, validate_fields
 from .errors import PatchlightError
 from .imaging.dilate import dilate
 from .radiosity.hemicube import stratified_directions
@@ -36,36 +37,30 @@ SPACES = ("tangent", "object")
 DEFAULT_REACH = 0.05  # ray reach without a cage or distance: this share of the low model's bounding-box diagonal
 DEFAULT_AO_REACH = 0.1  # AO ray length by default: this share of the high model's diagonal
 CHUNK = 65536  # texels per progress step
+MAX_MAP_SIZE = 16384  # texels per side
 
 
 @dataclass
 class NormalMapSettings:
-    """width, height: texels; distance: metres each side of the low surface a ray searches
-    (None: DEFAULT_REACH of the low model's diagonal); cage: a Scene with the low model's
-    vertices and triangles, rays run from it towards the low surface (then distance is unused);
-    space: "tangent" or "object"; dilation: rings filled past the covered texels; ao_rays: AO
-    rays per texel (0: no AO map); ao_distance: metres (None: DEFAULT_AO_REACH of the high
-    model's diagonal); seed: the AO ray pattern."""
+    """What map is baked and how its rays search (table: docs/settings.md)."""
 
-    width: int = 512
-    height: int = 512
-    distance: float | None = None
-    cage: Scene | None = None
-    space: str = "tangent"
-    dilation: int = 8
-    ao_rays: int = 0
-    ao_distance: float | None = None
-    seed: int = 0
+    width: int = setting(512, "texels", "map width", lo=1, hi=MAX_MAP_SIZE, whole=True, typical="512-2048")
+    height: int = setting(512, "texels", "map height", lo=1, hi=MAX_MAP_SIZE, whole=True, typical="512-2048")
+    distance: float | None = setting(None, "m", "how far each side of the low surface a ray searches (unused with "
+                                     "a cage)", lo=0, lo_open=True,
+                                     none=f"{DEFAULT_REACH:g} of the low model's bounding-box diagonal")
+    cage: Scene | None = setting(None, "", "a mesh of the low model's vertices and triangles, moved out: rays run "
+                                 "from it towards the low surface", none="rays from distance above the surface")
+    space: str = setting("tangent", "", "the normals' space", choices=SPACES)
+    dilation: int = setting(8, "texels", "rings filled past the covered texels", lo=0, whole=True, typical="8")
+    ao_rays: int = setting(0, "rays / texel", "ambient-occlusion rays (0: no AO map)", lo=0, whole=True,
+                           typical="64")
+    ao_distance: float | None = setting(None, "m", "AO ray length", lo=0, lo_open=True,
+                                        none=f"{DEFAULT_AO_REACH:g} of the high model's diagonal")
+    seed: int = setting(0, "int", "the AO ray pattern", lo=0, whole=True)
 
     def validate(self) -> None:
-        if self.space not in SPACES:
-            raise PatchlightError(f"normal map space {self.space!r}: choose tangent or object")
-        for name in ("distance", "ao_distance"):
-            value = getattr(self, name)
-            if value is not None and not (np.isfinite(value) and value > 0):
-                raise PatchlightError(f"--{name.replace('_', '-')} {value}: must be a positive number of metres")
-        if self.ao_rays < 0 or self.dilation < 0:
-            raise PatchlightError("--ao-rays and --dilate must not be negative")
+        validate_fields(self)
 
 
 @dataclass
@@ -126,7 +121,7 @@ def bake_normal_map(high: Scene, low: Scene, settings: NormalMapSettings, advanc
             advance(rows.stop - rows.start)
     if not found.any():
         raise PatchlightError(f"no ray from {low.label} met {high.label} within {float(reach.max()):.4g} m; "
-                              "raise --distance or give a --cage")
+                              "raise `distance` or give a `cage`")
     return _assemble(settings, texel_y, texel_x, found, values, ao)
 
 

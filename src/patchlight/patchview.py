@@ -132,7 +132,8 @@ class PatchViews:
     def __init__(self, bake_dir: str | Path):
         from . import bakedir
         from .atlas.raster import rasterize
-        from .radiosity.emitters import find_emitters, samples_per_texel, two_sided_triangles
+        from .radiosity.emitters import find_emitters, samples_per_texel
+        from .rays.inside import two_sided_triangles
         from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
         from .rays.tracer import Tracer
 
@@ -161,7 +162,7 @@ class PatchViews:
         """The view from texel (x, y) (column, row; row 0 at v = 0)."""
         p = self.patches
         if not (0 <= x < p.width and 0 <= y < p.height) or p.index[y, x] < 0:
-            raise PatchlightError(f"--patch {x},{y}: no patch there (the lightmap is {p.width}x{p.height}; "
+            raise PatchlightError(f"`patch` {x},{y}: no patch there (the lightmap is {p.width}x{p.height}; "
                                   "pick a texel a surface covers)")
         row = int(p.index[y, x])
         g = self.gatherer
@@ -177,14 +178,3 @@ class PatchViews:
             radiance[sky] = g.sky.radiance(directions[sky])
         origin = p.position[row] + g.offset[row] * p.normal[row]
         return PatchView((x, y), g.method, self.size, seen, origin, directions, g.dirs, g.weights, radiance, next_event)
-
-
-def parse_texel(text: str, where: str = "--patch") -> tuple[int, int]:
-    """'X,Y' -> (x, y) whole texel coordinates >= 0."""
-    try:
-        x, y = (int(v) for v in text.split(","))
-    except ValueError:
-        raise PatchlightError(f"{where} {text}: expected X,Y (a lightmap texel's column and row)") from None
-    if x < 0 or y < 0:
-        raise PatchlightError(f"{where} {text}: texel coordinates are >= 0")
-    return x, y

@@ -172,7 +172,7 @@ def test_vertex_arrays_are_split_consistently():
 
 
 def test_absurd_sizes_and_bad_options_are_refused():
-    with pytest.raises(PatchlightError, match="lower --texels-per-unit"):
+    with pytest.raises(PatchlightError, match="lower `texels_per_unit` or set `resolution`"):
         ensure_lightmap_uvs(cube_scene(size=100.0), texels_per_unit=1000)
     with pytest.raises(PatchlightError, match="resolution"):
         ensure_lightmap_uvs(cube_scene(), resolution=9000)

@@ -3,6 +3,7 @@ bad input, on small scenes whose light is known (ground_scenes.py)."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -296,14 +297,14 @@ def test_bad_input_says_what_and_where():
     b, lights = level()
     with pytest.raises(PatchlightError, match="no ground under the area"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=16, area=GroundArea(100, 100, 120, 120)))
-    with pytest.raises(PatchlightError, match="--size 20000"):
+    with pytest.raises(PatchlightError, match=r"^size: 20000 must be a whole number in 1\.\.16384 \(texels\)$"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=20000))
-    with pytest.raises(PatchlightError, match="--max-height"):
+    with pytest.raises(PatchlightError, match=r"^max_height: 0 must be a number > 0 \(m\)$"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=16, max_height=0))
     for seed in (-1, 1.5, True):
-        with pytest.raises(PatchlightError, match=f"--seed {seed}: must be a whole number >= 0"):
+        with pytest.raises(PatchlightError, match=f"^seed: {re.escape(repr(seed))} must be a whole number >= 0$"):
             make_groundmap(solved(b, lights), GroundMapSettings(size=16, seed=seed))
-    with pytest.raises(PatchlightError, match="--offset-mode sideways: choose from none, normal, side"):
+    with pytest.raises(PatchlightError, match="^offset_mode: 'sideways' must be one of none, normal, side$"):
         make_groundmap(solved(b, lights), GroundMapSettings(size=16, offset_mode="sideways"))
 
 

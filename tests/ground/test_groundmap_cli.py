@@ -79,7 +79,7 @@ def test_the_map_takes_the_bakes_sun_angle_unless_told_otherwise(tmp_path, capsy
     (["--area", "5,5,1,1"], "X1 > X0"),
     (["--area", "100,100,110,110"], "no ground under the area"),
     (["--noise", "2"], "--noise 2"),
-    (["--seed", "-1"], "--seed -1: must be a whole number >= 0"),
+    (["--seed", "-1"], "--seed -1: seed must be a whole number >= 0"),
     (["--offset-distance", "-1"], "--offset-distance -1"),
 ])
 def test_bad_input_is_one_line_and_exit_2(baked, tmp_path, capsys, args, message):

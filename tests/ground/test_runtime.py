@@ -137,7 +137,7 @@ def test_glsl_ids_match_the_reference():
 def test_settings_refuse_what_the_model_cannot_use():
     with pytest.raises(PatchlightError, match="ambient"):
         ShadingSettings(model="hemisphere-radiosity", ambient=np.zeros(3, np.float32)).validate()
-    with pytest.raises(PatchlightError, match="--offset-mode"):
+    with pytest.raises(PatchlightError, match="^offset_mode: 'sideways' must be one of none, normal, side$"):
         ShadingSettings(model="hemisphere-radiosity", ground_map=inputs(offset_mode="sideways")).validate()
     with pytest.raises(PatchlightError, match="unit length"):
         ShadingSettings(model="hemisphere-radiosity", ground_map=inputs(side=np.array([2.0, 0, 0]))).validate()

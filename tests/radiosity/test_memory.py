@@ -52,7 +52,7 @@ def test_the_estimate_refuses_what_would_not_fit_and_names_a_resolution_that_wou
     assert estimate_bake_bytes(2048, 1024) - base == 2 * (estimate_bake_bytes(1024, 1024) - base) > 0
     check_bake_memory(64, 64, available=10**12)
     with pytest.raises(PatchlightError, match=r"lightmap 4096x4096: the bake needs about [\d.]+ GiB \(and about \d+ "
-                                              r"minutes\) .* lower --resolution \(about 1") as refused:
+                                              r"minutes\) .* lower `resolution` \(about 1") as refused:
         check_bake_memory(4096, 4096, available=2**30)
     side = int(re.search(r"about (\d+)\)", str(refused.value)).group(1))
     check_bake_memory(side, side, available=2**30)  # the resolution it names fits

@@ -213,5 +213,5 @@ def test_envmap_rendered_from_a_point_sees_the_lit_walls_and_the_suns_highlight(
     outside = Renderer(target, envmap_from=(5.0, 0.0, 0.0)).environment(settings, size=9)
     np.testing.assert_allclose(outside[1, 4, 4, :3], 0.3, atol=1e-6)  # -X: the far wall, ambient only
     assert outside[0, ..., :3].max() == 0  # +X: away from the box
-    with pytest.raises(PatchlightError, match="--envmap-from 0,0,0 is inside geometry"):
+    with pytest.raises(PatchlightError, match="`envmap_from` 0,0,0 is inside geometry"):
         Renderer(sphere_target(8, 16), envmap_from=(0.0, 0.0, 0.0)).environment(settings)

@@ -90,7 +90,7 @@ def test_a_camera_inside_a_solid_wall_is_refused():
     eye = np.array([4.0, 0.45, -0.2])  # inside the front wall, below the middle window
     assert renderer.inside_share(eye) > 0.75  # not 1: faces the wall shares with its neighbours
     assert renderer.inside_share(eye + [0.0, 1.15, 0.0]) == 0  # in the window's opening
-    with pytest.raises(PatchlightError, match=r"camera at \(4, 0.45, -0.2\) is inside geometry.*--camera"):
+    with pytest.raises(PatchlightError, match=r"camera at \(4, 0.45, -0.2\) is inside geometry.*choose another `camera`"):
         renderer.render(target_settings(target), Camera(eye, np.array([4.0, 1.5, 3.0])), 8, 8)
 
 
@@ -109,13 +109,13 @@ def test_the_environment_cube_of_a_closed_object_is_rendered_from_the_default_ca
 def test_an_environment_point_inside_geometry_names_the_options():
     target = closed_sphere_under_a_sun()
     settings = target_settings(target, model="envmap")
-    with pytest.raises(PatchlightError, match="--envmap-from 0,0,0 is inside geometry"):
+    with pytest.raises(PatchlightError, match="`envmap_from` 0,0,0 is inside geometry"):
         Renderer(target, envmap_from=(0.0, 0.0, 0.0)).environment(settings)
     inside_camera = closed_sphere_under_a_sun({"eye": [0.0, 0.0, 0.5], "target": [0.0, 0.0, -1.0], "fov": 45.0})
     with pytest.raises(PatchlightError) as err:
         Renderer(inside_camera).environment(settings)
     message = str(err.value)
-    assert "inside geometry" in message and "--envmap-from" in message and "--sky" in message
+    assert "inside geometry" in message and "`envmap_from` X,Y,Z" in message and "`sky` R,G,B" in message
     assert "\n" not in message
 
 

@@ -113,8 +113,8 @@ def test_without_any_point_for_the_environment_the_page_gets_a_note_naming_the_o
     target = closed_sphere_under_a_sun({"eye": [0.0, 0.0, 0.5], "target": [0.0, 0.0, -1.0], "fov": 45.0})
     with make_server(target, target_settings(target, model="lambert"), exposure=1.0) as srv:
         manifest, env = bundled_env(srv)
-    assert env.max() == 0 and "--envmap-from" in manifest["env_note"] and "--sky" in manifest["env_note"]
-    with pytest.raises(PatchlightError, match="--envmap-from"):
+    assert env.max() == 0 and "`envmap_from`" in manifest["env_note"] and "`sky`" in manifest["env_note"]
+    with pytest.raises(PatchlightError, match="`envmap_from`"):
         make_server(target, target_settings(target, model="envmap"), exposure=1.0)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .uvs import _edge_codes
+from .uvs import edge_codes
 
 SMOOTH = 0.9998  # cosine between the two sides' normals at both end points (1.1 degrees)
 
@@ -22,7 +22,7 @@ def seam_edges(positions: np.ndarray, normals: np.ndarray, indices: np.ndarray,
         return np.zeros((0, 2, 2)), np.zeros((0, 2, 2))
     corner = np.ascontiguousarray(positions[indices].reshape(-1, 3), np.float32) + np.float32(0.0)
     keys = np.unique(corner.view(np.dtype((np.void, 12))).ravel(), return_inverse=True)[1].reshape(-1, 3)
-    code = _edge_codes(keys).ravel()                               # (T * 3,) edge k of triangle t
+    code = edge_codes(keys).ravel()                               # (T * 3,) edge k of triangle t
     order = np.argsort(code, kind="stable")
     sorted_code = code[order]
     starts = np.flatnonzero(np.r_[True, sorted_code[1:] != sorted_code[:-1]])

@@ -201,7 +201,7 @@ def _object_scales(scene: Scene, density: float, asked: dict[str, float]) -> tup
         names, triangle, from_file = objects.names, objects.triangle, objects.texels_per_unit
     unknown = sorted(set(asked) - set(names))
     if unknown:
-        raise PatchlightError(f"{scene.label}: --density names {', '.join(map(repr, unknown))}, which no object "
+        raise PatchlightError(f"{scene.label}: `density` names {', '.join(map(repr, unknown))}, which no object "
                               f"is called (objects: {', '.join(map(repr, sorted(set(names))[:8]))}"
                               f"{' ...' if len(set(names)) > 8 else ''})")
     for name, value in asked.items():
@@ -252,7 +252,7 @@ def uv_boundary_edges(uv1: np.ndarray, indices: np.ndarray) -> np.ndarray:
     is no other triangle has the same UV edge."""
     if len(indices) == 0:
         return np.zeros((0, 3), bool)
-    code = _edge_codes(_uv_keys(uv1, indices)).ravel()
+    code = edge_codes(_uv_keys(uv1, indices)).ravel()
     count = np.unique(code, return_inverse=True, return_counts=True)
     return (count[2][count[1]] == 1).reshape(-1, 3)
 
@@ -263,7 +263,7 @@ def _uv_keys(uv1, indices):
     return np.unique(corner_uv.view(np.int64).ravel(), return_inverse=True)[1].reshape(-1, 3)
 
 
-def _edge_codes(keys):
+def edge_codes(keys):
     """(T, 3) i64 code of each triangle edge k (corner k to k+1), independent of direction."""
     edges = np.sort(np.stack([keys[:, [0, 1]], keys[:, [1, 2]], keys[:, [2, 0]]], axis=1), axis=2)
     return edges[..., 0].astype(np.int64) * (int(keys.max()) + 1) + edges[..., 1]
@@ -293,7 +293,7 @@ def _keep_texcoord1(scene, texels_per_unit, resolution, names, triangle, scale):
         size = max(_round_up4(density * math.sqrt(world_area / (count * uv_area))), MIN_SIZE)
         if size > MAX_SIZE:
             raise PatchlightError(f"{where}: its TEXCOORD_1 at {density:g} texels per metre needs a {size}x{size} "
-                                  f"lightmap (limit {MAX_SIZE}); lower --texels-per-unit or set --resolution")
+                                  f"lightmap (limit {MAX_SIZE}); lower `texels_per_unit` or set `resolution`")
     _, charts = uv_charts(uv1, scene.indices)
     warnings = _outside_unit_square(uv1, scene)
     if np.any(scale != 1.0):
@@ -413,7 +413,7 @@ def pack_planar_charts(scene: Scene, texels_per_unit: float, resolution: int | N
 def _planar_charts(positions, indices, normal):
     """Chart id (T,) and count: region growing over triangles sharing an edge (by position)."""
     welded = np.unique(positions, axis=0, return_inverse=True)[1].ravel()[indices]
-    code = _edge_codes(welded)
+    code = edge_codes(welded)
     triangle = np.repeat(np.arange(len(indices)), 3)
     order = np.argsort(code.ravel(), kind="stable")
     code, triangle = code.ravel()[order], triangle[order]
@@ -464,7 +464,7 @@ def _fit_density(extent, world_area, resolution, padding, scene):
             hi = density
     if lo is None or hi is None:
         raise PatchlightError(f"{scene.label}: {len(extent)} charts with {padding} texels of "
-                              f"padding do not fit in {resolution}x{resolution}; raise --resolution")
+                              f"padding do not fit in {resolution}x{resolution}; raise `resolution`")
     for _ in range(12):  # refine between lo and 2 lo
         middle = 0.5 * (lo + hi)
         ok, attempt = fits(middle)
@@ -501,7 +501,7 @@ def _shared_edge_components(keys):
     """Connected components (T,) i32 and count of triangles whose corners carry vertex keys
     (T, 3), linked when they share an edge (an unordered pair of keys)."""
     t_count = len(keys)
-    edge_id = np.unique(_edge_codes(keys).ravel(), return_inverse=True)[1].ravel()
+    edge_id = np.unique(edge_codes(keys).ravel(), return_inverse=True)[1].ravel()
     rows = np.repeat(np.arange(t_count), 3)
     graph = coo_matrix((np.ones(len(rows), np.int8), (rows, t_count + edge_id)),
                        shape=(t_count + edge_id.max() + 1,) * 2)
@@ -522,7 +522,7 @@ def _check_options(texels_per_unit, resolution, padding):
 def _check_size(width, height, scene):
     if width * height > MAX_TEXELS:
         raise PatchlightError(f"{scene.label}: the lightmap would be {width}x{height} texels "
-                              f"(limit {MAX_SIZE}x{MAX_SIZE}); lower --texels-per-unit or set --resolution")
+                              f"(limit {MAX_SIZE}x{MAX_SIZE}); lower `texels_per_unit` or set `resolution`")
 
 
 def _check_density(scene, texels_per_unit):
@@ -535,8 +535,8 @@ def _check_density(scene, texels_per_unit):
         at = (f"{float(texels_per_unit.min()):g}" if np.ptp(texels_per_unit) == 0
               else f"{float(texels_per_unit.min()):g}-{float(texels_per_unit.max()):g}")
         raise PatchlightError(f"{scene.label}: {world_area:.4g} m^2 at {at} texels per "
-                              f"metre needs {needed:.3g} texels (limit {MAX_TEXELS}); lower --texels-per-unit "
-                              f"or set --resolution")
+                              f"metre needs {needed:.3g} texels (limit {MAX_TEXELS}); lower `texels_per_unit` "
+                              f"or set `resolution`")
 
 
 def _round_up4(value):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..config import DIRECTIONAL_MODES, GATHERS, BakeSettings
 from ..errors import PatchlightError
-from .options import DEFAULTS, about, add_scene_options, load_lit_scene
+from .options import DEFAULTS, about, add_scene_options, declared_field, load_lit_scene
 from .parser import finite_number, writes_output
 
 MAX_MEMORY_GIB = 1 << 20
@@ -52,8 +52,8 @@ def add_bake_options(p: argparse.ArgumentParser) -> None:
                    help="texels per metre for the objects (glTF nodes or meshes) named NAME; repeatable")
     p.add_argument("--exposure", default=DEFAULTS.exposure, help=about("exposure"))
     p.add_argument("--max-memory", type=finite_number, default=DEFAULTS.max_memory / 2**30, metavar="GiB",
-                   help=f"the most the form-factor matrix may keep, 0..{MAX_MEMORY_GIB} GiB; beyond, every pass "
-                        "re-gathers (default %(default)s)")
+                   help=f"{declared_field('max_memory').metadata['meaning']}, "
+                        f"in GiB: 0..{MAX_MEMORY_GIB} (default %(default)s)")
     p.add_argument("--seed", type=int, default=DEFAULTS.seed, help=about("seed"))
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the bake summary as JSON on stdout")

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PatchlightError
-from .options import add_scene_options, load_lit_scene, sky_from_args
+from .options import about, add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
 from .values import parse_area
 
@@ -30,24 +30,21 @@ def register(sub) -> None:
     from ..ground.groundmap import GroundMapSettings
     from ..shading.hemisphere_radiosity import OFFSET_MODES
 
-    d = GroundMapSettings()
     p = sub.add_parser("groundmap", help="bake a top-down radiosity ground map", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scene", metavar="SCENE_OR_BAKE_DIR", help="a bake directory, a .glb/.gltf file or a built-in scene")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
-    p.add_argument("--area", metavar="X0,Z0,X1,Z1", help="metres covered by the map (default: the level, squared)")
-    p.add_argument("--size", type=int, default=d.size, metavar="N", help="map width = height (default %(default)s)")
-    p.add_argument("--max-height", type=finite_number, default=d.max_height, metavar="H",
-                   help="leave out polygons more than H metres above the ground (default %(default)s)")
-    p.add_argument("--noise", type=finite_number, default=d.noise, metavar="A", help="random noise (default %(default)s)")
-    p.add_argument("--shadows", choices=ENCODINGS, default=d.shadows,
-                   help="separate maps, shadow in alpha, or folded into one RGB map (default %(default)s)")
-    p.add_argument("--seed", type=int, default=d.seed, help="noise seed (default %(default)s)")
-    p.add_argument("--offset-distance", type=finite_number, default=d.offset, metavar="M",
-                   help="runtime sample offset distance, metres, recorded in the json (default %(default)s)")
+    d = GroundMapSettings
+    p.add_argument("--area", metavar="X0,Z0,X1,Z1", help=about("area", d))
+    p.add_argument("--size", type=int, default=d.size, metavar="N", help=about("size", d))
+    p.add_argument("--max-height", type=finite_number, default=d.max_height, metavar="H", help=about("max_height", d))
+    p.add_argument("--noise", type=finite_number, default=d.noise, metavar="A", help=about("noise", d))
+    p.add_argument("--shadows", choices=ENCODINGS, default=d.shadows, help=about("shadows", d))
+    p.add_argument("--seed", type=int, default=d.seed, help=about("seed", d))
+    p.add_argument("--offset-distance", dest="offset", type=finite_number, default=d.offset, metavar="M",
+                   help=about("offset", d))
     p.add_argument("--offset-mode", choices=OFFSET_MODES, default=d.offset_mode, metavar="normal|side|none",
-                   help="runtime offset mode recorded in the json as render's and view's default: along the "
-                        "normal, its left-right part only, or none (default %(default)s)")
+                   help=about("offset_mode", d))
     p.add_argument("--texels-per-unit", type=finite_number, metavar="T",
                    help=f"lightmap density when baking a scene here (default {DENSE_TEXELS_PER_UNIT:g}, "
                         f"or less so the level spans {LEVEL_TEXELS} texels)")
@@ -62,7 +59,7 @@ def settings_from_args(args):
 
     settings = GroundMapSettings(size=args.size, area=parse_area(args.area) if args.area else None,
                                  max_height=args.max_height, noise=args.noise, shadows=args.shadows,
-                                 seed=args.seed, offset=args.offset_distance, offset_mode=args.offset_mode,
+                                 seed=args.seed, offset=args.offset, offset_mode=args.offset_mode,
                                  sun_angle=args.sun_angle)
     settings.validate()
     return settings

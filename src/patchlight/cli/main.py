@@ -55,7 +55,7 @@ def _stopped(number: int) -> int:
 
 
 def _run(argv: list[str] | None) -> int:
-    from ..errors import PatchlightError, SettingError
+    from ..errors import PatchlightError
     from ..scene.gltf import outside_files_allowed
     from .parser import build_parser
 
@@ -68,13 +68,8 @@ def _run(argv: list[str] | None) -> int:
         with outside_files_allowed(getattr(args, "allow_outside_files", False)), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the user gets patchlight's own lines, not NumPy's
             return int(args.func(args) or 0)
-    except SettingError as exc:  # the library names the field; the user set it by its flag
-        flag = parser.commands[args.command].flag(exc.field)
-        words = exc.field.replace("_", " ")
-        print(f"patchlight: error: {f'{flag} {exc.value}: {words} {exc.problem}' if flag else exc}", file=sys.stderr)
-        return 2
-    except PatchlightError as exc:
-        print(f"patchlight: error: {exc}", file=sys.stderr)
+    except PatchlightError as exc:  # the library names fields; the user set them by their flags
+        print(f"patchlight: error: {parser.commands[args.command].user_line(exc)}", file=sys.stderr)
         return 2
 
 

@@ -8,8 +8,13 @@ import time
 from pathlib import Path
 
 from ..errors import PatchlightError
+from ..normalmap import NormalMapSettings
+from .options import about
 from .parser import finite_number
 from .values import parse_size
+
+
+AO_RAYS = 64  # AO rays per texel when --ao asks for the map
 
 
 def register(sub) -> None:
@@ -20,17 +25,16 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png")
     p.add_argument("--size", type=parse_size, default=(512, 512), metavar="WxH", help="default 512x512")
     reach = p.add_mutually_exclusive_group()
-    reach.add_argument("--distance", type=finite_number, metavar="M",
-                       help="metres each side of the low surface a ray searches (default 5%% of its diagonal)")
+    reach.add_argument("--distance", type=finite_number, metavar="M", help=about("distance", NormalMapSettings))
     reach.add_argument("--cage", type=Path, metavar="CAGE.glb",
                        help="rays run from this mesh (the low model's vertices, moved out) to the low surface")
     p.add_argument("--object-space", action="store_true", help="object-space normals instead of tangent space")
     p.add_argument("--ao", type=Path, metavar="AO.png", help="also write ambient occlusion (grey, 1 = open)")
-    p.add_argument("--ao-rays", type=int, default=64, metavar="N", help="AO rays per texel (default %(default)s)")
-    p.add_argument("--ao-distance", type=finite_number, metavar="M",
-                   help="AO ray length (default 10%% of the high model's diagonal)")
-    p.add_argument("--dilate", type=int, default=8, metavar="TEXELS",
-                   help="texels filled past the map's charts (default %(default)s)")
+    p.add_argument("--ao-rays", type=int, default=AO_RAYS, metavar="N",
+                   help=f"ambient-occlusion rays per texel, for --ao (default {AO_RAYS})")
+    p.add_argument("--ao-distance", type=finite_number, metavar="M", help=about("ao_distance", NormalMapSettings))
+    p.add_argument("--dilate", dest="dilation", type=int, default=NormalMapSettings.dilation, metavar="TEXELS",
+                   help=about("dilation", NormalMapSettings))
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -39,7 +43,7 @@ def run(args) -> int:
     import numpy as np
 
     from ..imaging.io import atomic_path, check_output_dir, encode_png, write_bytes
-    from ..normalmap import NormalMapSettings, bake_normal_map
+    from ..normalmap import bake_normal_map
     from ..progress import Progress
     from ..scene import load_scene
 
@@ -52,7 +56,7 @@ def run(args) -> int:
     width, height = args.size
     settings = NormalMapSettings(width=width, height=height, distance=args.distance,
                                  cage=load_scene(args.cage) if args.cage else None,
-                                 space="object" if args.object_space else "tangent", dilation=args.dilate,
+                                 space="object" if args.object_space else "tangent", dilation=args.dilation,
                                  ao_rays=args.ao_rays if args.ao else 0, ao_distance=args.ao_distance)
     settings.validate()
     high, low = load_scene(args.high), load_scene(args.low)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import FALLOFFS, BakeSettings, accepted
+from ..config import FALLOFFS, PLAIN_UNITS, BakeSettings, accepted
 from ..errors import PatchlightError
 from ..shading.hemisphere_radiosity import OFFSET_MODES
 from .parser import finite_number
@@ -18,25 +18,33 @@ DEFAULTS = BakeSettings()
 
 
 def about(name: str, settings=BakeSettings) -> str:
-    """The --help text of the flag that sets field `name`: its meaning, unit, what it accepts
-    and its default, from the field's metadata (config.setting)."""
-    meta = next(f.metadata for f in fields(settings) if f.name == name)
-    unit = "" if meta["unit"] in ("", "ratio", "count", "int", "bool", "str") else f", {meta['unit']}"
+    """The --help text of the flag that sets field `name` of a settings class: its meaning,
+    unit, what it accepts and its default, from the field's metadata (config.setting)."""
+    field = declared_field(name, settings)
+    meta = field.metadata
+    unit = "" if meta["unit"] in PLAIN_UNITS else f", {meta['unit']}"
     accepts = accepted(meta)
     if meta["unit"] == "bool":
         return meta["meaning"]
-    return f"{meta['meaning']}{unit}" + (f"; {accepts}" if accepts else "") + " (default %(default)s)"
+    default = "" if meta["none"] and field.default is None else " (default %(default)s)"  # "unset (...)" says it
+    return f"{meta['meaning']}{unit}" + (f"; {accepts}" if accepts else "") + default
 
 
-def add_scene_options(p: argparse.ArgumentParser) -> None:
-    """Sky and light options shared by every command that lights a scene."""
+def declared_field(name: str, settings=BakeSettings):
+    """The dataclass field `name` of a settings class (its declaration in .metadata)."""
+    return next(f for f in fields(settings) if f.name == name)
+
+
+def add_scene_options(p: argparse.ArgumentParser, settings=BakeSettings) -> None:
+    """Sky and light options shared by every command that lights a scene; the help texts of
+    --falloff and --sun-angle from those fields of `settings`."""
     sky = p.add_mutually_exclusive_group()
     sky.add_argument("--sky", type=parse_rgb, metavar="R,G,B", help="uniform sky radiance")
     sky.add_argument("--sky-gradient", type=parse_rgb, nargs=3, metavar=("ZENITH", "HORIZON", "GROUND"),
                      help="sky radiance at the zenith, at the horizon and below it (three R,G,B)")
     sky.add_argument("--sky-image", type=Path, metavar="FILE", help="equirectangular .exr or .hdr sky")
-    p.add_argument("--falloff", choices=FALLOFFS, default=DEFAULTS.falloff, help=about("falloff"))
-    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help=about("sun_angle"))
+    p.add_argument("--falloff", choices=FALLOFFS, default=settings.falloff, help=about("falloff", settings))
+    p.add_argument("--sun-angle", type=finite_number, metavar="DEG", help=about("sun_angle", settings))
 
 
 def add_shading_options(p: argparse.ArgumentParser) -> None:
@@ -56,14 +64,16 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
                    help="ambient incident light (default: from the sky, else 0.05 grey)")
     p.add_argument("--reflectivity", type=finite_number, metavar="K", help="envmap reflectivity of every material (0..1)")
-    p.add_argument("--specular", action="store_true", help="lightmap model: add the lights' Blinn-Phong highlight")
+    p.add_argument("--specular", dest="lightmap_specular", action="store_true",
+                   help="lightmap model: add the lights' Blinn-Phong highlight")
     p.add_argument("--normal-map", nargs="?", const=True, default=False, type=Path, metavar="PNG",
                    help="tangent-space normal maps, colour alpha as gloss: the materials' own, or this image "
                         "(e.g. from `patchlight normalmap`) for every material")
     p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
     p.add_argument("--volume", type=Path, metavar="DIR",
                    help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
-    p.add_argument("--naive-weights", action="store_true", help="ambient-cube model: weight the axes by saturate(N)")
+    p.add_argument("--naive-weights", dest="ambient_cube_naive", action="store_true",
+                   help="ambient-cube model: weight the axes by saturate(N)")
     p.add_argument("--offset-mode", choices=OFFSET_MODES, metavar="normal|side|none",
                    help="hemisphere-radiosity model: where a ground map directory's map is sampled, offset along "
                         "the normal, its left-right part only, or not at all (default: the map's groundmap.json)")
@@ -119,7 +129,6 @@ def load_target_and_settings(args, model: str | None):
     lightmap when the target has one (a bake), else lambert."""
     from ..inputs import open_input
     from ..render.settings import target_settings
-    from ..volumes.viewer import find_volume
 
     target, ground_map = open_input(args.target).target(args.offset_mode)
     sky = sky_from_args(args)
@@ -134,10 +143,20 @@ def load_target_and_settings(args, model: str | None):
         model = "lightmap" if target.lightmap is not None else "lambert"
     settings = target_settings(target, model=model, lights=lights, falloff=args.falloff, ambient=args.ambient,
                                per_vertex=args.per_vertex, normal_map=bool(args.normal_map),
-                               lightmap_specular=args.specular, reflectivity=args.reflectivity,
-                               ground_map=ground_map, volume=find_volume(args.volume, target.bake_dir),
-                               ambient_cube_naive=args.naive_weights)
+                               lightmap_specular=args.lightmap_specular, reflectivity=args.reflectivity,
+                               ground_map=ground_map, volume=target_volume(args.volume, target),
+                               ambient_cube_naive=args.ambient_cube_naive)
     return target, settings
+
+
+def target_volume(spec, target):
+    """The ambient-cube model's light volume: --volume's, else the one the target's bake
+    directory holds, else None."""
+    from ..inputs import open_input
+
+    if spec is not None:
+        return open_input(spec, wanted="volume").volume()
+    return None if target.bake_dir is None else open_input(target.bake_dir).volume(required=False)
 
 
 def use_normal_map(target, path: Path) -> None:

@@ -32,6 +32,9 @@ def writes_output(run):
     return locked
 
 
+# settings fields set through a flag whose dest is another name: field -> that dest
+FIELD_FLAGS = {"eye": "camera", "fov": "camera"}
+
 SUBCOMMANDS = ("bake", "demo", "render", "view", "groundmap", "volume", "vertexbake", "normalmap", "blender")
 READS_SCENES = ("bake", "render", "view", "groundmap", "volume", "vertexbake", "normalmap")
 
@@ -48,8 +51,22 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"patchlight: error: {message}\n")
 
     def flag(self, dest: str) -> str | None:
-        """The option that sets `dest` (its long form), or None."""
+        """The option that sets `dest` (its long form; a field set through a flag of another
+        name, FIELD_FLAGS), or None."""
+        dest = FIELD_FLAGS.get(dest, dest)
         return next((a.option_strings[-1] for a in self._actions if a.dest == dest and a.option_strings), None)
+
+    def user_line(self, exc) -> str:
+        """The one line a PatchlightError from this command shows its user: the fields it names
+        (a SettingError's field, and `field` in backquotes) said as the flags that set them."""
+        from ..errors import SettingError
+
+        if isinstance(exc, SettingError) and self.flag(exc.field):
+            value = exc.value
+            if isinstance(value, (tuple, list)):
+                value = ",".join(f"{v:g}" for v in value)
+            return f"{self.flag(exc.field)} {value}: {exc.field.replace('_', ' ')} {exc.problem}"
+        return re.sub(r"`(\w+)`", lambda m: self.flag(m[1]) or m[0], str(exc))
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -7,16 +7,16 @@ import time
 from pathlib import Path
 
 from ..errors import PatchlightError
-from ..shading.models import MODELS
-from .options import add_shading_options, load_target_and_settings
-from .values import parse_camera, parse_exposure, parse_point, parse_size
+from ..shading.models import MODELS, ShadingSettings
+from .options import about, add_shading_options, load_target_and_settings
+from .values import parse_camera, parse_exposure, parse_point, parse_size, parse_texel
 
 
 def register(sub) -> None:
     p = sub.add_parser("render", help="render a picture with a runtime lighting model (CPU)", description=__doc__)
     p.add_argument("target", metavar="SCENE_OR_BAKE_DIR",
                    help="a .glb/.gltf file, a built-in scene (room, cornell) or a bake directory")
-    p.add_argument("--model", choices=MODELS, default="lambert", help="lighting model (default %(default)s)")
+    p.add_argument("--model", choices=MODELS, default=ShadingSettings.model, help=about("model", ShadingSettings))
     p.add_argument("--camera", nargs=3, metavar=("EX,EY,EZ", "TX,TY,TZ", "FOV"),
                    help="eye, target (metres) and vertical field of view (degrees); +Y up")
     p.add_argument("--size", type=parse_size, default=(1024, 1024), metavar="WxH", help="default 1024x1024")
@@ -67,7 +67,7 @@ def render_patch(args, output: Path, exposure: float | None, started: float) -> 
     or its linear radiance picture as .exr."""
     from ..imaging.exposure import auto_exposure
     from ..imaging.io import write_exr, write_png
-    from ..patchview import PatchViews, parse_texel, patch_picture
+    from ..patchview import PatchViews, patch_picture
     from ..bakedir import is_bake_dir
 
     x, y = parse_texel(args.patch)

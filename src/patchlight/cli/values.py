@@ -64,6 +64,14 @@ def parse_point(text: str, where: str) -> np.ndarray:
     return np.array(numbers(text, 3, f"{where} {text}", "X,Y,Z"))
 
 
+def parse_texel(text: str, where: str = "--patch") -> tuple[int, int]:
+    """'X,Y' -> (x, y) whole texel coordinates >= 0."""
+    x, y = numbers(text, 2, f"{where} {text}", "X,Y (a lightmap texel's column and row)", whole=True)
+    if x < 0 or y < 0:
+        raise PatchlightError(f"{where} {text}: texel coordinates are >= 0")
+    return x, y
+
+
 def parse_exposure(text: str) -> float | None:
     """None for auto, else a positive float."""
     if text == "auto":
@@ -77,35 +85,22 @@ def parse_exposure(text: str) -> float | None:
     return k
 
 
-def parse_dims(text: str) -> tuple[int, int, int]:
-    """--dims 'NX,NY,NZ' -> three probe counts >= 1."""
-    what, form = f"--dims {text}", "NX,NY,NZ (three whole numbers >= 1)"
-    dims = tuple(numbers(text, 3, what, form, whole=True))
-    if min(dims) < 1:
-        raise PatchlightError(f"{what}: expected {form}")
-    return dims
+def parse_dims(text: str) -> tuple[int, ...]:
+    """--dims 'NX,NY,NZ' -> three whole numbers (their range: volumes.grid.GridSettings)."""
+    return tuple(numbers(text, 3, f"--dims {text}", "NX,NY,NZ (three whole numbers >= 1)", whole=True))
 
 
-def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray]:
-    """'X0,Y0,Z0,X1,Y1,Z1' -> (lo, hi), or a one-line error."""
-    values = np.array(numbers(text, 6, f"--bounds {text}", "X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"))
-    lo, hi = values[:3], values[3:]
-    if np.any(hi < lo):
-        raise PatchlightError(f"--bounds {text}: each of X1, Y1, Z1 must be at least X0, Y0, Z0")
-    with np.errstate(over="ignore"):  # probes are traced in float32: corners and size must fit
-        if not (np.all(np.isfinite(values.astype(np.float32))) and np.all(np.isfinite((hi - lo).astype(np.float32)))):
-            raise PatchlightError(f"--bounds {text}: too large for float32 positions (beyond 3.4e38 m)")
-    return lo, hi
+def parse_bounds(text: str) -> tuple[float, ...]:
+    """'X0,Y0,Z0,X1,Y1,Z1' -> six numbers (what they may be: volumes.grid.GridSettings)."""
+    return tuple(numbers(text, 6, f"--bounds {text}", "X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"))
 
 
 def parse_area(text: str):
-    """--area 'X0,Z0,X1,Z1' (metres) -> patchlight.ground.mapping.GroundArea."""
+    """--area 'X0,Z0,X1,Z1' (metres) -> patchlight.ground.mapping.GroundArea (what it may be:
+    ground.groundmap.GroundMapSettings)."""
     from ..ground.mapping import GroundArea
 
-    x0, z0, x1, z1 = numbers(text, 4, f"--area {text}", "X0,Z0,X1,Z1 (four numbers, metres)")
-    if not (x1 > x0 and z1 > z0):
-        raise PatchlightError(f"--area {text}: needs X1 > X0 and Z1 > Z0")
-    return GroundArea(x0, z0, x1, z1)
+    return GroundArea(*numbers(text, 4, f"--area {text}", "X0,Z0,X1,Z1 (four numbers, metres)"))
 
 
 def parse_camera(values: list[str]):

@@ -11,7 +11,7 @@ import sys
 
 from ..shading.models import MODELS
 from .options import add_shading_options, load_target_and_settings
-from .values import parse_exposure, parse_point
+from .values import parse_exposure, parse_point, parse_texel
 
 
 def port_number(text: str) -> int:
@@ -45,7 +45,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..patchview import parse_texel
     from ..inputs import open_input
     from ..viewer.app import make_server
 

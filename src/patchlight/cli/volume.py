@@ -6,15 +6,14 @@ first), the sky, and the lights through shadow rays. Writes DIR/light_volume.jso
 format in patchlight.volumes.io), DIR/light_volume.bin (data) and DIR/volume.json (stats)."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
-from ..volumes.probes import MAX_SEED, VolumeSettings
-from .options import add_scene_options, load_solved_from_args
+from ..volumes.grid import GridSettings
+from ..volumes.probes import VolumeSettings
+from .options import about, add_scene_options, load_solved_from_args
 from .parser import finite_number, writes_output
 from .values import parse_bounds, parse_dims
 
-DEFAULT_PROBES_ALONG_LONGEST = 16  # default spacing: the scene's longest side / 15
 STATS = "volume.json"
 
 
@@ -24,36 +23,21 @@ def register(sub) -> None:
                    help="a bake directory, a .glb/.gltf file or a built-in scene (room, cornell)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--spacing", type=finite_number, metavar="M",
-                      help=f"metres between probes (default: the longest side / {DEFAULT_PROBES_ALONG_LONGEST - 1})")
-    size.add_argument("--dims", metavar="NX,NY,NZ", help="probe counts along X, Y and Z")
-    p.add_argument("--bounds", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box to fill with probes (default: the scene's bounds)")
-    p.add_argument("--rays", type=int, default=VolumeSettings().rays, metavar="N",
-                   help="gather rays per axis, rounded down to a square (default %(default)s)")
+    size.add_argument("--spacing", type=finite_number, metavar="M", help=about("spacing", GridSettings))
+    size.add_argument("--dims", metavar="NX,NY,NZ", help=about("dims", GridSettings))
+    p.add_argument("--bounds", metavar="X0,Y0,Z0,X1,Y1,Z1", help=about("bounds", GridSettings))
+    p.add_argument("--rays", type=int, default=VolumeSettings.rays, metavar="N", help=about("rays", VolumeSettings))
     p.add_argument("--compact", action="store_true", help="store one colour and six intensities per probe")
-    p.add_argument("--seed", type=int, default=VolumeSettings().seed,
-                   help=f"seed of the rays' jitter and rotation, 0..{MAX_SEED} (default %(default)s)")
-    add_scene_options(p)
+    p.add_argument("--seed", type=int, default=VolumeSettings.seed, help=about("seed", VolumeSettings))
+    add_scene_options(p, VolumeSettings)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print volume.json on stdout")
     p.set_defaults(func=writes_output(run))
 
 
-def choose_grid(args, scene):
-    from ..volumes.grid import check_overlap, grid_over
-
-    scene_lo, scene_hi = scene.bounds()
-    if args.bounds:
-        lo, hi = parse_bounds(args.bounds)
-        check_overlap(lo, hi, scene_lo, scene_hi)
-    else:
-        lo, hi = scene_lo, scene_hi
-    if args.dims:
-        return grid_over(lo, hi, dims=parse_dims(args.dims))
-    spacing = args.spacing
-    if spacing is None:
-        spacing = max(float((hi - lo).max()), 1e-3) / (DEFAULT_PROBES_ALONG_LONGEST - 1)
-    return grid_over(lo, hi, spacing=spacing)
+def grid_settings(args) -> GridSettings:
+    return GridSettings(spacing=args.spacing, dims=parse_dims(args.dims) if args.dims else None,
+                        bounds=parse_bounds(args.bounds) if args.bounds else None)
 
 
 def run(args) -> int:
@@ -64,13 +48,15 @@ def run(args) -> int:
     from ..volumes.io import DATA, HEADER
 
     settings = VolumeSettings(rays=args.rays, sun_angle=args.sun_angle, falloff=args.falloff, seed=args.seed)
+    where = grid_settings(args)
+    where.validate()
     check_output_dir(args.output)
     quiet = args.quiet or args.json
     source = open_input(args.scene)
     if source.kind in ("builtin", "scene"):  # a scene to bake first: refuse a bad grid before the bake
-        choose_grid(args, source.scene())
+        where.grid(*source.scene().bounds())
     solved = load_solved_from_args(args, quiet)
-    grid = choose_grid(args, solved.scene)
+    grid = where.grid(*solved.scene.bounds())
     volume, stats = bake_volume(solved, grid, settings, quiet=quiet)
     stats["layout"] = "compact" if args.compact else "full"
     stats["files"] = [DATA, HEADER, STATS]

@@ -10,17 +10,7 @@ on a scene before it is baked, so a map that cannot be made (an area with no gro
 it) is refused before the bake, and `make_groundmap` reuses the plan when the baked scene
 has the same triangles.
 
-| setting    | unit / type | default | meaning (range; typical)                                      |
-|------------|-------------|---------|---------------------------------------------------------------|
-| size       | texels      | 1024    | map width = height (1..16384; 512-2048)                       |
-| area       | GroundArea  | None    | x0, z0, x1, z1 metres; None: a square over the level          |
-| max_height | metres      | 3.0     | leave out polygons higher above the ground (> 0; 2-5)         |
-| noise      | ratio       | 0.1     | random texel noise, per channel (0..1; the article's 10 %)    |
-| shadows    | str         | "hsv"   | "separate", "alpha" or "hsv" (encode.py)                      |
-| seed       | int         | 1       | noise seed (>= 0)                                             |
-| offset     | metres      | 1.0     | runtime sample offset distance, recorded in the json          |
-| offset_mode| str         | "normal"| runtime offset mode "normal", "side" or "none", in the json   |
-| sun_angle  | degrees     | None    | the sun's angular diameter, as the bake's (None: the light's) |
+The settings (GroundMapSettings) are declared with their units and ranges on the fields.
 """
 from __future__ import annotations
 
@@ -32,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import bakedir
-from ..errors import PatchlightError
+from ..config import setting, validate_fields
+from ..errors import PatchlightError, SettingError
 from ..rays.tracer import Tracer
 from ..scene.model import Scene
 from ..shading.hemisphere_radiosity import OFFSET_MODES
@@ -41,7 +32,7 @@ from . import encode as enc
 from ..imaging.io import write_png
 from ..outputs import staged_output
 from .files import FORMAT, VERSION, to_bytes, write_manifest, write_map_files
-from .mapping import GroundArea, check_size, square_area
+from .mapping import MAX_SIZE, GroundArea, square_area
 from .picture import Footprint, cast_down, look_down, sun_shadow, the_sun
 from .prepare import MapGeometry, ground_below, prepare_map_geometry
 
@@ -59,34 +50,27 @@ MAPPING_NOTE = ("u = U . (x, y, z, 1), v = V . (x, y, z, 1); +X to the right, +Z
 
 @dataclass
 class GroundMapSettings:
-    """The table in the module docstring."""
+    """What map is made, and what its json tells the runtime (table: docs/settings.md)."""
 
-    size: int = 1024
-    area: GroundArea | None = None
-    max_height: float = 3.0
-    noise: float = 0.1
-    shadows: str = "hsv"
-    seed: int = 1
-    offset: float = 1.0
-    offset_mode: str = "normal"
-    sun_angle: float | None = None
+    size: int = setting(1024, "texels", "map width = height", lo=1, hi=MAX_SIZE, whole=True, typical="512-2048")
+    area: GroundArea | None = setting(None, "m", "x0, z0, x1, z1 covered by the map", none="the level, squared")
+    max_height: float = setting(3.0, "m", "leave out polygons higher above the ground", lo=0, lo_open=True,
+                                typical="2-5")
+    noise: float = setting(0.1, "ratio", "random texel noise, per channel", lo=0.0, hi=1.0, typical="0.1")
+    shadows: str = setting("hsv", "", "the sun's shadows: a separate map, in alpha, or folded into one RGB map "
+                           "(encode.py)", choices=enc.ENCODINGS)
+    seed: int = setting(1, "int", "the noise's seed", lo=0, whole=True)
+    offset: float = setting(1.0, "m", "runtime sample offset distance, recorded in the json", lo=0.0, typical="1")
+    offset_mode: str = setting("normal", "", "runtime offset mode, recorded in the json: along the normal, its "
+                               "left-right part only, or none", choices=OFFSET_MODES)
+    sun_angle: float | None = setting(None, "degrees", "the sun's angular diameter (0 = hard shadows)", lo=0, hi=90,
+                                      hi_open=True, typical="0.53 (the real sun)", none="the bake's, else the light's")
 
     def validate(self) -> None:
-        check_size(self.size)
-        if self.shadows not in enc.ENCODINGS:
-            raise PatchlightError(f"--shadows {self.shadows}: choose from {', '.join(enc.ENCODINGS)}")
-        if not (np.isfinite(self.max_height) and self.max_height > 0):
-            raise PatchlightError(f"--max-height {self.max_height}: must be a positive number of metres")
-        if not 0 <= self.noise <= 1:
-            raise PatchlightError(f"--noise {self.noise}: must lie between 0 and 1")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise PatchlightError(f"--seed {self.seed}: must be a whole number >= 0")
-        if not (np.isfinite(self.offset) and self.offset >= 0):
-            raise PatchlightError(f"--offset-distance {self.offset}: must be a non-negative number of metres")
-        if self.offset_mode not in OFFSET_MODES:
-            raise PatchlightError(f"--offset-mode {self.offset_mode}: choose from {', '.join(OFFSET_MODES)}")
-        if self.sun_angle is not None and not (np.isfinite(self.sun_angle) and 0 <= self.sun_angle < 90):
-            raise PatchlightError(f"--sun-angle {self.sun_angle}: must lie in 0..90 degrees")
+        validate_fields(self)
+        area = self.area
+        if area is not None and not (area.x1 > area.x0 and area.z1 > area.z0):
+            raise SettingError("area", tuple(area.to_json()), "needs X1 > X0 and Z1 > Z0")
 
 
 @dataclass
@@ -165,7 +149,7 @@ def plan_groundmap(scene: Scene, settings: GroundMapSettings | None = None) -> G
     seconds: dict[str, float] = {}
     lo, hi = scene.bounds()
     area = settings.area or square_area(lo, hi)
-    where = f"--area {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.label
+    where = f"`area` {','.join(f'{v:g}' for v in area.to_json())}" if settings.area else scene.label
 
     clock = time.perf_counter()
     geometry = prepare_map_geometry(scene, settings.max_height)

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PatchlightError
 
 MAX_SIZE = 16384  # texels per side; the largest 2D texture WebGL2 implementations commonly allow
 
@@ -70,10 +69,3 @@ def square_area(lo: np.ndarray, hi: np.ndarray) -> GroundArea:
     cx, cz = (lo[0] + hi[0]) / 2, (lo[2] + hi[2]) / 2
     half = max(hi[0] - lo[0], hi[2] - lo[2], 1e-3) / 2
     return GroundArea(float(cx - half), float(cz - half), float(cx + half), float(cz + half))
-
-
-def check_size(size: int) -> int:
-    """size as given, or a PatchlightError when it is not in 1..MAX_SIZE."""
-    if not 1 <= size <= MAX_SIZE:
-        raise PatchlightError(f"--size {size}: must lie between 1 and {MAX_SIZE} texels")
-    return size

@@ -9,7 +9,7 @@ Shadows: shadow rays from the flat layer's hit towards the sun, against the whol
 (tree canopies and poles left out of the picture still cast shadows), say how much of the sun
 reaches that spot of ground. They are the bake's own direct-light rays (radiosity.direct):
 one to the sun's centre for a hard sun, stratified over its disc when it has an angle (the
-bake's --sun-angle or the light's), so the map's shadows are the bake's.
+bake's sun_angle or the light's), so the map's shadows are the bake's.
 """
 from __future__ import annotations
 

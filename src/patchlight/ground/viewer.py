@@ -123,6 +123,7 @@ def ground_map_target(directory, offset_mode: str | None = None) -> tuple[str, V
                               f"make the map again with `patchlight groundmap`")
     if offset_mode is not None:
         ground_map.offset_mode = offset_mode
+        ground_map.validate()
     return shown, ground_map
 
 

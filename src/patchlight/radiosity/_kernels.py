@@ -4,6 +4,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..rays.inside import is_back_face
+
 SKY = -1        # the ray escaped: it sees the sky
 BACK_FACE = -2  # the ray hit a triangle from behind: the patch may lie inside geometry
 LOST = -3       # the hit's lightmap texel is covered by no patch
@@ -43,7 +45,7 @@ def resolve_hits(tri, u, v, front, two_sided, tri_uv1, width, height, index):
         t = tri[i]
         if t < 0:
             out[i] = SKY
-        elif not front[i] and not two_sided[t]:
+        elif is_back_face(t, front[i], two_sided):
             out[i] = BACK_FACE
         else:
             out[i] = _patch_at(t, u[i], v[i], tri_uv1, width, height, index)

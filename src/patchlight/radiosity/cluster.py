@@ -42,7 +42,7 @@ def _host_port(address: str) -> tuple[str, int] | None:
         return None
     host, sep, port = address.removeprefix("ray://").rpartition(":")
     if not sep or not host or not port.isdigit():
-        raise PatchlightError(f"--ray {address}: expected HOST:PORT of the cluster's head, auto or local")
+        raise PatchlightError(f"`ray` {address}: expected HOST:PORT of the cluster's head, auto or local")
     return host.strip("[]"), int(port)
 
 
@@ -56,7 +56,7 @@ def _probe(address: str) -> None:
         socket.create_connection(where, timeout=CONNECT_SECONDS).close()
     except OSError as exc:
         reason = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
-        raise PatchlightError(f"--ray {address}: cannot reach the Ray cluster's head ({reason} "
+        raise PatchlightError(f"`ray` {address}: cannot reach the Ray cluster's head ({reason} "
                               f"within {CONNECT_SECONDS} s)") from None
 
 
@@ -85,7 +85,7 @@ def _join(address: str):
     try:
         import ray
     except ImportError:
-        raise PatchlightError("--ray needs the ray package: pip install 'patchlight[cluster]'") from None
+        raise PatchlightError("`ray` needs the ray package: pip install 'patchlight[cluster]'") from None
     if ray.is_initialized():
         return ray
     with _stderr_kept() as kept:
@@ -94,9 +94,9 @@ def _join(address: str):
                      log_to_driver=False, configure_logging=False)
         except Exception as exc:  # ConnectionError, RpcError, AuthenticationError, ...
             detail = str(exc).strip().splitlines() or kept().strip().splitlines() or [type(exc).__name__]
-            raise PatchlightError(f"--ray {address}: cannot join the Ray cluster ({detail[0]})") from None
+            raise PatchlightError(f"`ray` {address}: cannot join the Ray cluster ({detail[0]})") from None
     if not ray.cluster_resources().get("CPU"):
-        raise PatchlightError(f"--ray {address}: the Ray cluster has no CPU to run the gather on")
+        raise PatchlightError(f"`ray` {address}: the Ray cluster has no CPU to run the gather on")
     return ray
 
 
@@ -124,7 +124,7 @@ class RayCluster:
             if not ready:
                 for future in pending:
                     ray.cancel(future, force=True)
-                raise PatchlightError(f"--ray {self.address}: no gather task finished within "
+                raise PatchlightError(f"`ray` {self.address}: no gather task finished within "
                                       f"{TASK_SECONDS} s ({len(pending)} of {len(futures)} waiting)")
             for future in ready:
                 node, done[future] = ray.get(future)

@@ -1,4 +1,4 @@
-"""Directional lightmaps baked (`bake --directional sh|dominant`; the formats and the runtime
+"""Directional lightmaps baked (BakeSettings.directional sh or dominant; the formats and the runtime
 model are `patchlight.shading.directional`'s).
 
 Once the passes have converged, every valid texel looks again through the gather's own rays
@@ -80,8 +80,7 @@ def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advan
     solid_angle = np.pi * weights / np.maximum(gatherer.dirs[:, 2].astype(np.float64), MIN_COS)  # local z = cos
     B = np.asarray(B, np.float64)
 
-    def chunk(part):
-        seen, dirs = gatherer._see(part, gatherer.dirs)[:2]  # the item buffer and the directions
+    def chunk(part, seen, dirs):
         radiance = np.zeros((len(seen), 3))
         hit = seen >= 0
         radiance[hit] = B[seen[hit]]
@@ -92,7 +91,7 @@ def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advan
 
     cos = gatherer.dirs[:, 2].astype(np.float64)
     moments = np.linalg.inv([[weights.sum(), weights @ cos], [weights @ cos, weights @ cos ** 2]])
-    for part, radiance, dirs in gatherer.tracer.map(chunk, gatherer._chunks(rows)):
+    for part, radiance, dirs in gatherer.look_rows(rows, chunk):
         m0, m1 = np.einsum("rdc,d->rc", radiance, weights), np.einsum("rdc,d->rc", radiance, weights * cos)
         a, b = moments[0, 0] * m0 + moments[0, 1] * m1, moments[1, 0] * m0 + moments[1, 1] * m1
         sums.add_radial(part, a, b, gatherer.patches.normal[part].astype(np.float64))

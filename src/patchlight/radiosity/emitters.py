@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..atlas.patches import Patches
+from ..rays.inside import two_sided_triangles
 from ..rays.tracer import Tracer
 from ..scene.model import Scene, face_normals
 from . import _kernels
@@ -50,12 +51,6 @@ def samples_per_texel(emitter_samples: int) -> int:
     """The next-event samples a texel takes: `emitter_samples` rounded down to a square
     (they lie on an n x n grid over the texel)."""
     return math.isqrt(emitter_samples) ** 2
-
-
-def two_sided_triangles(scene: Scene) -> np.ndarray:
-    """(T,) bool: triangles whose material is doubleSided (their back is an ordinary surface)."""
-    flags = np.array([m.double_sided for m in scene.materials] or [False], bool)
-    return flags[scene.material_ids] if scene.n_triangles else np.zeros(0, bool)
 
 
 def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:

@@ -132,6 +132,13 @@ class Gatherer:
         seen, dirs, hits = self._see(np.array([row], np.int64), self.dirs)
         return seen, dirs, self.emission_shares(seen, hits, dirs)
 
+    def look_rows(self, rows: np.ndarray, fn) -> list:
+        """fn(chunk, seen, dirs) for each of the gather's chunks of patches `rows`, on the
+        tracer's threads, results in order: chunk (C,) the patches, seen (C * D,) what their
+        rays see (as `look`) and dirs (C * D, 3) the rays' world directions, turned as in
+        their gather."""
+        return self.tracer.map(lambda chunk: fn(chunk, *self._see(chunk, self.dirs)[:2]), self._chunks(rows))
+
     def _see(self, rows: np.ndarray, local_dirs: np.ndarray):
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
         id or SKY / BACK_FACE / LOST per ray, the rays' directions (R * D, 3) and their Hits."""

@@ -7,7 +7,7 @@ sampler's plan and state, the passes kept as float16, images and the files' buff
 covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the room's 213
 at 1024 and 200 at 2048). Peak minus F was 0.57 and 1.53 GiB at 1024 and 2048: 256 MiB plus
 328 a texel. Direct light works chunk by chunk, so its points per texel cost nothing per
-texel. F gets what is left, up to --max-memory, and is dropped for re-gathering once it
+texel. F gets what is left, up to max_memory, and is dropped for re-gathering once it
 would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
@@ -63,11 +63,11 @@ def check_bake_memory(width: int, height: int, available: int | None = None) -> 
         raise PatchlightError(
             f"lightmap {width}x{height}: the bake needs about {needed / 2**30:.1f} GiB (and about "
             f"{estimate_seconds(width, height) / 60:.0f} minutes) but only {usable / 2**30:.1f} GiB is available; "
-            f"lower --resolution (about {max(side, MIN_SIDE)}) or --texels-per-unit")
+            f"lower `resolution` (about {max(side, MIN_SIDE)}) or `texels_per_unit`")
 
 
 def form_factor_budget(width: int, height: int, max_memory: int, available: int | None = None) -> int:
-    """Bytes F may keep: --max-memory, or what the machine has left beside the rest of the bake."""
+    """Bytes F may keep: max_memory, or what the machine has left beside the rest of the bake."""
     available = available_memory() if available is None else int(available)
     if available <= 0:
         return int(max_memory)

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PatchlightError
+from ..config import setting, validate_fields
+from ..errors import SettingError
 
 DEFAULT_FOV = 45.0  # degrees
 _VIEW_DIRECTION = np.array([0.45, 0.35, 0.82])  # default eye offset from the target, before scaling
@@ -21,24 +22,29 @@ INTERIOR_FOV = 60.0  # degrees
 
 @dataclass
 class Camera:
-    """eye, target (3,) metres; fov vertical field of view in degrees, in (0, 180)."""
+    """A pinhole camera (table: docs/settings.md)."""
 
-    eye: np.ndarray
-    target: np.ndarray
-    fov: float = DEFAULT_FOV
+    eye: np.ndarray = setting(unit="m", meaning="where the camera is", length=3)
+    target: np.ndarray = setting(unit="m", meaning="the point it looks at; +Y is up", length=3)
+    fov: float = setting(DEFAULT_FOV, "degrees", "vertical field of view", lo=0, hi=180, lo_open=True, hi_open=True,
+                         typical="45-60")
+
+    def validate(self) -> None:
+        """SettingError for a camera that cannot see."""
+        self.basis()
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(right, up, forward) unit vectors, float64."""
+        """(right, up, forward) unit vectors, float64; SettingError for a camera that cannot see."""
+        validate_fields(self)
         forward = np.asarray(self.target, np.float64) - np.asarray(self.eye, np.float64)
         length = np.linalg.norm(forward)
-        if not 0 < self.fov < 180:
-            raise PatchlightError(f"--camera: field of view {self.fov} must lie between 0 and 180 degrees")
         if length == 0:
-            raise PatchlightError("--camera: eye and target are the same point")
+            raise SettingError("eye", [float(v) for v in self.eye], "is the target's point: eye and target must differ")
         forward /= length
         right = np.cross(forward, [0.0, 1.0, 0.0])
         if np.linalg.norm(right) < 1e-9:
-            raise PatchlightError("--camera: looking straight up or down; +Y is up, so tilt the view a little")
+            raise SettingError("eye", [float(v) for v in self.eye], "looks straight up or down at the target; +Y is "
+                               "up, so tilt the view a little")
         right /= np.linalg.norm(right)
         return right, np.cross(right, forward), forward
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PatchlightError
-from ..rays.inside import back_share, is_inside
+from ..rays.inside import back_faces, back_share, is_inside, two_sided_triangles
 from ..rays.tracer import Hits, Tracer
 from ..shading.environment import ENV_SIZE, environment_from_sky, light_highlight
 from ..shading.models import LIGHTMAP_MODELS, Fragments, Lighting, MaterialTable, ShadingSettings, light_surface, shade_fragments
@@ -47,7 +47,7 @@ class Renderer:
         self._environments: dict = {}
         surface = target.surface
         self.tracer = Tracer(surface.positions, surface.indices)
-        self.double_sided = np.array([m.double_sided for m in target.scene.materials], bool)
+        self.two_sided = two_sided_triangles(target.scene)  # the surface's triangles, in order
         lo, hi = target.scene.bounds()
         self.center = ((lo + hi) / 2).astype(np.float32)
         self._epsilon = np.float32(1e-5 * max(float(np.linalg.norm(hi - lo)), 1e-3))
@@ -118,11 +118,7 @@ class Renderer:
         return candidates[-1]
 
     def _culled(self, hits: Hits) -> np.ndarray:
-        tri = hits.tri
-        hit = tri >= 0
-        single = np.zeros(len(tri), bool)
-        single[hit] = ~self.double_sided[self.target.surface.material_ids[tri[hit]]]
-        return hit & ~hits.front & single
+        return back_faces(hits.tri, hits.front, self.two_sided)
 
     # ------------------------------------------------------------------ shading
 
@@ -186,18 +182,18 @@ class Renderer:
     def render(self, settings: ShadingSettings, camera: Camera, width: int, height: int) -> RenderResult:
         """Linear radiance seen by `camera` on a width x height image."""
         where = "the camera at ({:g}, {:g}, {:g})".format(*camera.eye)
-        self.require_outside(camera.eye, where, " (choose another with --camera)")
+        self.require_outside(camera.eye, where, " (choose another `camera`)")
         radiance, covered = self.shade_rays(settings, *camera.rays(width, height))
         return RenderResult(radiance.reshape(height, width, 3), covered.reshape(height, width))
 
     def require_inputs(self, settings: ShadingSettings) -> None:
         """PatchlightError when the model needs data the target lacks."""
         if settings.model in LIGHTMAP_MODELS and self.target.lightmap is None:
-            raise PatchlightError(f"{self.target.name}: --model {settings.model} needs a bake directory with "
+            raise PatchlightError(f"{self.target.name}: `model` {settings.model} needs a bake directory with "
                                   f"lightmap.exr (write one with `patchlight bake`)")
         if settings.model == "lightmap-directional" and settings.directional is None:
-            raise PatchlightError(f"{self.target.name}: --model lightmap-directional needs a bake made with "
-                                  f"--directional sh|dominant")
+            raise PatchlightError(f"{self.target.name}: `model` lightmap-directional needs a bake with directional "
+                                  f"maps (baked with `directional` sh or dominant)")
 
     # ------------------------------------------------------------------ environment
 
@@ -230,9 +226,9 @@ class Renderer:
         """(3,) where the environment cube is rendered from when it is not the sky:
         envmap_from when given; else the scene's centre, or, when that is inside geometry (a
         closed object such as a single-sided sphere), the default camera's eye. A
-        PatchlightError naming --envmap-from and --sky when the point is inside geometry."""
+        PatchlightError naming `envmap_from` and `sky` when the point is inside geometry."""
         if self.envmap_from is not None:
-            where = "--envmap-from {:g},{:g},{:g}".format(*self.envmap_from)
+            where = "`envmap_from` {:g},{:g},{:g}".format(*self.envmap_from)
             self.require_outside(self.envmap_from, where, "; choose a point in the open")
             return self.envmap_from
         if not self.is_inside(self.center):
@@ -241,7 +237,7 @@ class Renderer:
         if self.is_inside(eye):
             raise PatchlightError("the environment map: the scene's centre ({:g}, {:g}, {:g}) and the default "
                                   "camera's eye ({:g}, {:g}, {:g}) are inside geometry; render it from a point in "
-                                  "the open with --envmap-from X,Y,Z or reflect a sky (--sky R,G,B)"
+                                  "the open with `envmap_from` X,Y,Z or reflect a sky (`sky` R,G,B)"
                                   .format(*self.center, *eye))
         return eye
 

@@ -59,7 +59,7 @@ class Light:
     directional light the irradiance Es (W/m^2 on a perpendicular surface); for point and
     spot the radiant intensity (W/sr).  direction: (3,) unit vector the light travels along
     (glTF's -Z of the light node).  range: metres, or None for infinite.  Cone angles in radians.
-    falloff: "inverse-square" | "range" | None (None: take the bake's --falloff).
+    falloff: "inverse-square" | "range" | None (None: take the bake's falloff setting).
     angle: apparent angular diameter of a sun, radians (0 = hard shadows).
     baked: whether the bake puts its light into the lightmap (scene.glb then marks it baked, so
     runtimes do not light the scene with it a second time); False keeps it dynamic.

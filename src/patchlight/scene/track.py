@@ -10,7 +10,7 @@ A 160 x 160 m grass field (x, z in [-80, 80], +Y up) holding:
   is a cluster of leaf blocks with gaps between them, so the sun throws dappled shadows;
 - fences (1.2 m sponsor boards) between the main straight and the pits and along the back
   straight;
-- buildings: a low pit building (2.8 m, below the ground map's default --max-height, so its
+- buildings: a low pit building (2.8 m, below the ground map's default max_height, so its
   colours reach the map), a tall grandstand and two houses, and four 12 m floodlight poles;
 - a sun 45 degrees up and a blue gradient sky.
 

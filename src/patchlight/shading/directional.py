@@ -1,7 +1,7 @@
 """Directional lightmaps: what a texel stores beside the incident light I, and the
 `lightmap-directional` model's evaluation (the NumPy twin of lightmap_directional.glsl).
 
-Two modes (`bake --directional`):
+Two modes (BakeSettings.directional):
 
 - "sh": L1 spherical harmonics of the incident radiance L (W m^-2 sr^-1) over the texel's
   hemisphere, per colour channel: c0 = integral L Y00, c1 = integral L (Y1x, Y1y, Y1z) with
@@ -28,8 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import DIRECTIONAL_MODES
-from ..errors import PatchlightError
+from ..config import DIRECTIONAL_MODES, setting, validate_fields
 from .terms import blinn_phong_specular
 from .textures import sample_bilinear
 
@@ -46,12 +45,11 @@ class DirectionalLightmap:
     """mode "sh": maps (4, H, W, 3) f32 = L0, L1x, L1y, L1z per colour channel; mode
     "dominant": maps (1, H, W, 3) f32 = the dominant direction times its share."""
 
-    mode: str
-    maps: np.ndarray
+    mode: str = setting(unit="", meaning="what the maps hold", choices=MODES)
+    maps: np.ndarray = setting(unit="", meaning="the maps (K, H, W, 3)")
 
     def __post_init__(self):
-        if self.mode not in MODES:
-            raise PatchlightError(f"--directional {self.mode}: choose sh or dominant")
+        validate_fields(self)
         self.maps = np.asarray(self.maps, np.float32)
 
     def texels(self, uv1: np.ndarray) -> np.ndarray:

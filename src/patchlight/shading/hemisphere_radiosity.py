@@ -13,7 +13,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import PatchlightError
+from ..config import setting, validate_fields
+from ..errors import PatchlightError, SettingError
 from .terms import dot, envmap_color, saturate
 from .textures import sample_bilinear
 
@@ -36,12 +37,12 @@ class GroundMapInputs:
     texture: np.ndarray
     U: np.ndarray
     V: np.ndarray
-    encoding: str
-    map_scale: float
-    sky_scale: np.ndarray
+    encoding: str = setting(unit="", meaning="how the map holds the sun's shadows", choices=ENCODINGS)
+    map_scale: float = setting(unit="radiance", meaning="the radiance of a texel value 1", lo=0, lo_open=True)
+    sky_scale: np.ndarray = setting(unit="radiance", meaning="the sky constant", length=3)
     shadow: np.ndarray = field(default_factory=lambda: _WHITE.copy())
-    offset_mode: str = "normal"
-    offset: float = 1.0
+    offset_mode: str = setting("normal", "", "where the map is sampled", choices=OFFSET_MODES)
+    offset: float = setting(1.0, "m", "sample offset distance", lo=0.0)
     side: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0], np.float32))
     fog_color: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
     fog_range: tuple[float, float] = (0.0, 0.0)
@@ -52,18 +53,10 @@ class GroundMapInputs:
         return 0.5 * float(self.map_scale)
 
     def validate(self) -> None:
-        if self.encoding not in ENCODINGS:
-            raise PatchlightError(f"ground map encoding {self.encoding!r}: choose from {', '.join(ENCODINGS)}")
-        if self.offset_mode not in OFFSET_MODES:
-            raise PatchlightError(f"--offset-mode {self.offset_mode}: choose from {', '.join(OFFSET_MODES)}")
-        if not (np.isfinite(self.offset) and self.offset >= 0):
-            raise PatchlightError(f"ground map offset distance {self.offset}: must be a non-negative number of "
-                                  f"metres (groundmap --offset-distance)")
-        if not (np.isfinite(self.map_scale) and self.map_scale > 0):
-            raise PatchlightError(f"ground map scale {self.map_scale}: must be positive")
+        validate_fields(self)
         side = np.asarray(self.side, np.float64)
         if abs(np.linalg.norm(side) - 1.0) > 1e-3:
-            raise PatchlightError(f"ground map side vector {side.tolist()}: must have unit length")
+            raise SettingError("side", side.tolist(), "must have unit length")
 
     def with_options(self, **changes) -> "GroundMapInputs":
         """A copy with some fields changed (offset mode, side, fog ...)."""

@@ -7,10 +7,11 @@ pixels. The CPU renderer and the tests call these; the viewer runs the GLSL.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import setting, validate_fields
 from ..errors import PatchlightError
 from .ambient_cube import ambient_cube_light, sky_cube, sky_cube_light
 from .directional import DirectionalLightmap, directional_light, directional_specular
@@ -31,36 +32,37 @@ LIGHTMAP_MODELS = ("lightmap", "lightmap-directional")  # the models that read t
 UNLIT_BY_LIGHTS = ("unlit", "ambient", "hemisphere", "ambient-cube")  # models the punctual lights do not reach
 
 
+def _grey():
+    return np.full(3, DEFAULT_AMBIENT, np.float32)
+
+
 @dataclass
 class ShadingSettings:
-    """Everything but geometry and textures that decides a shaded pixel.
+    """Everything but geometry and textures that decides a shaded pixel (table:
+    docs/settings.md). exposure is never applied to EXR radiance."""
 
-    model: one of MODELS. lights: the punctual lights. ambient, sky, ground: (3,) incident light
-    of the ambient term and of the hemisphere's up and down poles.
-    per_vertex: evaluate the light sum at vertices and interpolate. normal_map: perturb normals
-    by the materials' normal maps, with the colour alpha as gloss. lightmap_specular: add the
-    lights' Blinn-Phong highlight to the lightmap model. exposure: k of the display curve
-    1 - exp(-k x) for PNGs and the viewer (never applied to EXR radiance). reflectivity: envmap strength overriding every
-    material's, or None to keep theirs. ground_map: the hemisphere-radiosity model's baked
-    ground map, or None for its plain-hemisphere fallback (`radiosity_inputs`). volume: the
-    ambient-cube model's light volume (patchlight.volumes.LightVolume), or None for the sky as
-    one probe (`cube_light`); ambient_cube_naive: weight its axes by saturate(N), not N^2.
-    directional: the lightmap-directional model's DirectionalLightmap (a bake's), or None."""
-
-    model: str = "lambert"
-    lights: list[PunctualLight] = field(default_factory=list)
-    ambient: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
-    sky: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
-    ground: np.ndarray = field(default_factory=lambda: np.full(3, DEFAULT_AMBIENT, np.float32))
-    per_vertex: bool = False
-    normal_map: bool = False
-    lightmap_specular: bool = False
-    exposure: float = 1.0
-    reflectivity: float | None = None
-    ground_map: GroundMapInputs | None = None
-    volume: object | None = None
-    ambient_cube_naive: bool = False
-    directional: DirectionalLightmap | None = None
+    model: str = setting("lambert", "", "the lighting model", choices=MODELS)
+    lights: list[PunctualLight] = setting(unit="", meaning="the punctual lights", factory=list)
+    ambient: np.ndarray = setting(unit="radiance", meaning="incident light (3,) of the ambient term", length=3,
+                                  factory=_grey)
+    sky: np.ndarray = setting(unit="radiance", meaning="incident light (3,) at the hemisphere's up pole", length=3,
+                              factory=_grey)
+    ground: np.ndarray = setting(unit="radiance", meaning="incident light (3,) at the hemisphere's down pole",
+                                 length=3, factory=_grey)
+    per_vertex: bool = setting(False, "bool", "evaluate the light sum at vertices and interpolate")
+    normal_map: bool = setting(False, "bool", "perturb normals by the materials' normal maps, colour alpha as gloss")
+    lightmap_specular: bool = setting(False, "bool", "add the lights' Blinn-Phong highlight to the lightmap models")
+    exposure: float = setting(1.0, "1 / radiance", "k of the display curve 1 - exp(-k x) for PNGs and the viewer",
+                              lo=0, lo_open=True)
+    reflectivity: float | None = setting(None, "ratio", "envmap strength of every material", lo=0.0, hi=1.0,
+                                         none="each material's own")
+    ground_map: GroundMapInputs | None = setting(None, "", "the hemisphere-radiosity model's baked ground map",
+                                                 none="a plain hemisphere of the ground colour")
+    volume: object | None = setting(None, "", "the ambient-cube model's light volume (volumes.LightVolume)",
+                                    none="the sky as one probe")
+    ambient_cube_naive: bool = setting(False, "bool", "weight the ambient cube's axes by saturate(N), not N^2")
+    directional: DirectionalLightmap | None = setting(None, "", "the lightmap-directional model's maps (a bake's)",
+                                                      none="none")
 
     def cube_light(self, P: np.ndarray, N: np.ndarray) -> np.ndarray:
         """The ambient-cube model's incident light (N, 3) at points P with normals N: from the
@@ -74,16 +76,11 @@ class ShadingSettings:
         return self.ground_map or neutral_ground_map(self.sky, self.ground)
 
     def validate(self) -> None:
-        if self.model not in MODELS:
-            raise PatchlightError(f"--model {self.model}: unknown lighting model (choose from {', '.join(MODELS)})")
+        validate_fields(self)
         if self.per_vertex and self.normal_map:
-            raise PatchlightError("--normal-map needs per-pixel lighting; drop --per-vertex")
+            raise PatchlightError("`normal_map` needs per-pixel lighting; drop `per_vertex`")
         if self.per_vertex and self.model == "lightmap-directional":
-            raise PatchlightError("--model lightmap-directional lights per pixel; drop --per-vertex")
-        if not (np.isfinite(self.exposure) and self.exposure > 0):
-            raise PatchlightError(f"--exposure {self.exposure}: must be a positive number")
-        if self.reflectivity is not None and not 0 <= self.reflectivity <= 1:
-            raise PatchlightError(f"--reflectivity {self.reflectivity}: must lie in [0, 1]")
+            raise PatchlightError("`model` lightmap-directional lights per pixel; drop `per_vertex`")
         if self.model == "hemisphere-radiosity":
             check_ambient(self.ambient)
             self.radiosity_inputs().validate()

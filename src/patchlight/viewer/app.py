@@ -36,7 +36,8 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
     patch_view = None if target.texels is None else PatchEndpoint(target.bake_dir)
     if patch is not None:
         if patch_view is None:
-            raise PatchlightError(f"--patch: {target.name} is not a bake with texels.npz (bake it to view from a patch)")
+            raise PatchlightError(f"`patch`: {target.name} is not a bake with texels.npz (bake it to view from a "
+                                  f"patch)")
         patch_view.views().at(*patch)  # one line now when no patch is there
     if compare is not None:
         require_same_uvs(target, compare)
@@ -69,7 +70,7 @@ def require_same_uvs(target: Target, compare: Target) -> None:
     same = (compare.lightmap is not None and a.uv1 is not None and b.uv1 is not None
             and a.indices.shape == b.indices.shape and np.allclose(a.uv1[a.indices], b.uv1[b.indices], atol=1e-6))
     if not same:
-        raise PatchlightError(f"--compare {compare.name}: not a bake with the same lightmap UVs as {target.name} "
+        raise PatchlightError(f"`compare` {compare.name}: not a bake with the same lightmap UVs as {target.name} "
                               "(bake both from one scene at one resolution, or from a scene with its own TEXCOORD_1)")
 
 

@@ -95,8 +95,8 @@ class ViewerServer:
             self.httpd = _Server((HOST, port), handler)
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
-                raise PatchlightError(f"--port {port}: {HOST}:{port} is already in use") from None
-            raise PatchlightError(f"--port {port}: cannot listen on {HOST}:{port} ({exc.strerror})") from None
+                raise PatchlightError(f"`port` {port}: {HOST}:{port} is already in use") from None
+            raise PatchlightError(f"`port` {port}: cannot listen on {HOST}:{port} ({exc.strerror})") from None
         self._thread: threading.Thread | None = None
 
     @property

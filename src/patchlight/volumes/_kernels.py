@@ -24,27 +24,25 @@ def _lightmap_bilinear(lightmap, s, t, c):
 
 
 @nb.njit(cache=True, parallel=True)
-def sum_rows(tri, u, v, front, dirs, weights, tri_uv1, lightmap, tri_rho, tri_emission, textured):
+def sum_rows(tri, u, v, back, dirs, weights, tri_uv1, lightmap, tri_rho, tri_emission, textured):
     """For R rows of D rays each (ray i = row * D + j, weight weights[j]):
 
-    light (R, 3): the weighted excident light B = rho I + E of front hits on untextured
-    triangles (tri_rho, tri_emission (T, 3) per triangle, I from the lightmap at the hit's
-    lightmap UV, tri_uv1 (T, 3, 2)); the caller adds the sky and textured hits.
-    back (R,): the weight of rays that met a back face. open_side (R, 3): the weighted sum
-    of the directions of the other rays."""
+    light (R, 3): the weighted excident light B = rho I + E of hits on untextured triangles
+    that are not back faces (back (R * D,) bool, rays.inside.back_faces; tri_rho,
+    tri_emission (T, 3) per triangle, I from the lightmap at the hit's lightmap UV, tri_uv1
+    (T, 3, 2)); the caller adds the sky and textured hits. open_side (R, 3): the weighted sum
+    of the directions of the rays that met no back face."""
     d = weights.shape[0]
     rows = tri.shape[0] // d
     light = np.zeros((rows, 3), np.float32)
-    back = np.zeros(rows, np.float32)
     open_side = np.zeros((rows, 3), np.float32)
     for r in nb.prange(rows):
         for j in range(d):
             i = r * d + j
+            if back[i]:
+                continue
             t = tri[i]
             w = weights[j]
-            if t >= 0 and not front[i]:
-                back[r] += w
-                continue
             for c in range(3):
                 open_side[r, c] += w * dirs[i, c]
             if t < 0 or textured[t]:
@@ -54,4 +52,4 @@ def sum_rows(tri, u, v, front, dirs, weights, tri_uv1, lightmap, tri_rho, tri_em
             tt = w0 * tri_uv1[t, 0, 1] + u[i] * tri_uv1[t, 1, 1] + v[i] * tri_uv1[t, 2, 1]
             for c in range(3):
                 light[r, c] += w * (tri_rho[t, c] * _lightmap_bilinear(lightmap, s, tt, c) + tri_emission[t, c])
-    return light, back, open_side
+    return light, open_side

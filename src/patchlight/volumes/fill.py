@@ -46,7 +46,7 @@ def fill_invalid(cube: np.ndarray, invalid: np.ndarray, open_side: np.ndarray) -
     from each probe, or zero where it has none. Returns a new array."""
     known = ~invalid
     if not known.any():
-        raise PatchlightError("every probe lies inside geometry: move --bounds into the open part of the scene")
+        raise PatchlightError("every probe lies inside geometry: move `bounds` into the open part of the scene")
     if not np.isfinite(cube[known]).all():
         raise PatchlightError("probe values are not finite: the lightmap, sky or lights hold NaN or infinity")
     values = np.where(known[..., None], cube, 0.0).astype(np.float32)

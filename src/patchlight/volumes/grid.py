@@ -11,9 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PatchlightError
+from ..config import setting, validate_fields
+from ..errors import PatchlightError, SettingError
 
 MAX_PROBES = 10_000_000  # beyond this the bake takes hours and the volume gigabytes
+PROBES_ALONG_LONGEST = 16  # the default spacing puts this many probes along the longest side
 
 
 @dataclass(frozen=True)
@@ -46,6 +48,51 @@ class ProbeGrid:
                 "dims": list(map(int, self.dims))}
 
 
+@dataclass
+class GridSettings:
+    """Where the probes go (table: docs/settings.md): every `spacing` metres, or `dims` probes
+    (not both), over `bounds` (X0, Y0, Z0, X1, Y1, Z1 metres) or the scene's bounds."""
+
+    spacing: float | None = setting(None, "m", "distance between probes", lo=0, lo_open=True,
+                                    none=f"the longest side / {PROBES_ALONG_LONGEST - 1}")
+    dims: tuple | None = setting(None, "probes", "probe counts along X, Y and Z, from face to face", lo=1,
+                                 whole=True, length=3, none="from the spacing")
+    bounds: tuple | None = setting(None, "m", "the box filled with probes: X0, Y0, Z0, X1, Y1, Z1", length=6,
+                                   none="the scene's bounds")
+
+    def validate(self) -> None:
+        validate_fields(self)
+        if self.spacing is not None and self.dims is not None:
+            raise PatchlightError("give `spacing` or `dims`, not both")
+        if self.bounds is not None:
+            values = np.asarray(self.bounds, np.float64)
+            lo, hi = values[:3], values[3:]
+            if np.any(hi < lo):
+                raise SettingError("bounds", self.bounds, "must be at least X0, Y0, Z0 in each of X1, Y1, Z1")
+            with np.errstate(over="ignore"):  # probes are traced in float32: corners and size must fit
+                if not (np.all(np.isfinite(values.astype(np.float32)))
+                        and np.all(np.isfinite((hi - lo).astype(np.float32)))):
+                    raise SettingError("bounds", self.bounds, "are too large for float32 positions (beyond 3.4e38 m)")
+
+    def grid(self, scene_lo, scene_hi) -> ProbeGrid:
+        """The grid these settings give in a scene of bounds scene_lo, scene_hi (3,) metres;
+        SettingError when the bounds lie outside the scene."""
+        self.validate()
+        lo, hi = np.asarray(scene_lo, np.float64), np.asarray(scene_hi, np.float64)
+        if self.bounds is not None:
+            box = np.asarray(self.bounds, np.float64)
+            if np.any(box[3:] < lo) or np.any(box[:3] > hi):
+                scene = ",".join(f"{v:g}" for v in [*lo, *hi])
+                raise SettingError("bounds", self.bounds, f"lie outside the scene, whose bounds are {scene}")
+            lo, hi = box[:3], box[3:]
+        if self.dims is not None:
+            return grid_over(lo, hi, dims=self.dims)
+        spacing = self.spacing
+        if spacing is None:
+            spacing = max(float((hi - lo).max()), 1e-3) / (PROBES_ALONG_LONGEST - 1)
+        return grid_over(lo, hi, spacing=spacing)
+
+
 def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
     """The grid covering the box [lo, hi] (each (3,), metres).
 
@@ -60,38 +107,27 @@ def grid_over(lo, hi, spacing: float | None = None, dims=None) -> ProbeGrid:
     extent = hi - lo
     if (spacing is None) == (dims is None):
         raise ValueError("grid_over: give spacing or dims, not both")
+    GridSettings(spacing=spacing, dims=None if dims is None else tuple(dims)).validate()
     if spacing is not None:
-        if not (spacing > 0 and math.isfinite(spacing)):
-            raise PatchlightError(f"--spacing {spacing}: must be a positive number of metres")
         with np.errstate(over="ignore"):
             along = extent / spacing  # inf for a tiny spacing: no whole number to round to
         if not np.all(along < MAX_PROBES):
             axis = int(np.argmax(along))
             many = f"{float(along[axis]):.3g}" if math.isfinite(along[axis]) else "more than 1e308"
-            raise PatchlightError(f"--spacing {spacing}: {many} probes along {'XYZ'[axis]} alone ({float(extent[axis]):g} m) "
-                                  f"is more than the limit of {MAX_PROBES:,}; use a larger --spacing")
+            raise SettingError("spacing", spacing, f"is too small: {many} probes along {'XYZ'[axis]} alone "
+                               f"({float(extent[axis]):g} m), more than the limit of {MAX_PROBES:,}")
         counts = [max(1, math.ceil(a - 1e-9)) for a in along]
         step = np.full(3, float(spacing))
     else:
         counts = [int(n) for n in dims]
-        if len(counts) != 3 or min(counts) < 1:
-            raise PatchlightError(f"--dims {','.join(map(str, dims))}: expected three probe counts >= 1")
         flat = [axis for axis in range(3) if counts[axis] > 1 and extent[axis] <= 0]
         if flat:
-            raise PatchlightError(f"--dims {','.join(map(str, counts))}: {counts[flat[0]]} probes along "
-                                  f"{'XYZ'[flat[0]]}, where the box has no extent; use 1 there")
+            raise SettingError("dims", tuple(counts), f"put {counts[flat[0]]} probes along {'XYZ'[flat[0]]}, where "
+                               f"the box has no extent; use 1 there")
         step = np.array([e / (n - 1) if n > 1 else 1.0 for e, n in zip(extent, counts)])
     total = math.prod(counts)
     if total > MAX_PROBES:
         raise PatchlightError(f"{counts[0]} x {counts[1]} x {counts[2]} = {total:,} probes is more than "
-                              f"the limit of {MAX_PROBES:,}; use a larger --spacing or smaller --dims")
+                              f"the limit of {MAX_PROBES:,}; use a larger `spacing` or smaller `dims`")
     origin = (lo + hi) / 2 - step * (np.array(counts) - 1) / 2
     return ProbeGrid(tuple(map(float, origin)), tuple(map(float, step)), tuple(counts))
-
-
-def check_overlap(lo, hi, scene_lo, scene_hi) -> None:
-    """PatchlightError when the box [lo, hi] and the scene's bounds share no point."""
-    if np.any(np.asarray(hi) < scene_lo) or np.any(np.asarray(lo) > scene_hi):
-        box = ",".join(f"{v:g}" for v in [*lo, *hi])
-        scene = ",".join(f"{v:g}" for v in [*scene_lo, *scene_hi])
-        raise PatchlightError(f"--bounds {box}: outside the scene, whose bounds are {scene}")

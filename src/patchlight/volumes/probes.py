@@ -11,14 +11,7 @@ the wall it sits in), and its values are filled from valid neighbours (fill.py),
 those of any axis whose own rays meet many back faces (a probe on a wall's face, looking
 into the wall).
 
-| name        | unit / type   | default        | meaning (range; typical)                                   |
-|-------------|---------------|----------------|------------------------------------------------------------|
-| rays        | rays / axis   | 1024           | stratified rays, rounded down to a square (16..16384; 1024)|
-| sun_samples | rays / axis   | 16             | shadow rays over the sun's disc when its angle is > 0      |
-| sun_angle   | degrees       | None           | override the sun's angular diameter (0 = hard shadows)     |
-| falloff     | str           | inverse-square | point/spot falloff when a light names none: or "range"     |
-| seed        | int           | 1              | the jitter of the ray pattern and its rotation per axis    |
-|             |               |                | (0..MAX_SEED = 2^32 - 1)                                   |
+The settings (VolumeSettings) are declared with their units and ranges on the fields.
 """
 from __future__ import annotations
 
@@ -27,12 +20,12 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..errors import PatchlightError
+from ..config import FALLOFFS, setting, validate_fields
 from ..progress import Progress
 from ..radiosity.direct import direct_light
 from ..radiosity.hemicube import stratified_directions
 from ..rays.hemisphere import hemisphere_rays, row_angles
-from ..rays.inside import is_inside
+from ..rays.inside import back_faces, back_share, is_inside, two_sided_triangles
 from ..rays.tracer import Tracer
 from ..solved import SolvedScene
 from . import _kernels as _volume_kernels
@@ -50,19 +43,23 @@ MAX_SEED = 2**32 - 1        # numpy's seed range; row_angles' (row + seed) x gol
 
 @dataclass
 class VolumeSettings:
-    rays: int = 1024
-    sun_samples: int = 16
-    sun_angle: float | None = None
-    falloff: str = "inverse-square"
-    seed: int = 1
+    """How each probe gathers its light (table: docs/settings.md)."""
+
+    rays: int = setting(1024, "rays / axis", "stratified rays, rounded down to a square", lo=1, hi=MAX_RAYS,
+                        whole=True, typical="1024")
+    sun_samples: int = setting(16, "rays / axis", "shadow rays over the sun's disc when its angle is > 0", lo=1,
+                               whole=True, typical="16")
+    sun_angle: float | None = setting(None, "degrees", "the sun's angular diameter (0 = hard shadows)", lo=0,
+                                      hi=90, hi_open=True, typical="0.53 (the real sun)", none="each light's own")
+    falloff: str = setting("inverse-square", "", "point/spot falloff for lights that name none", choices=FALLOFFS)
+    seed: int = setting(1, "int", "the jitter of the ray pattern and its rotation per axis", lo=0, hi=MAX_SEED,
+                        whole=True)
 
     def __post_init__(self):
-        if not (isinstance(self.rays, (int, np.integer)) and 1 <= self.rays <= MAX_RAYS):
-            raise PatchlightError(f"--rays {self.rays!r}: must lie in 1..{MAX_RAYS}")
-        if not (isinstance(self.seed, (int, np.integer)) and 0 <= self.seed <= MAX_SEED):
-            raise PatchlightError(f"--seed {self.seed!r}: must lie in 0..{MAX_SEED}")
-        if not (self.sun_angle is None or 0 <= self.sun_angle < 90):  # False for NaN
-            raise PatchlightError(f"--sun-angle {self.sun_angle!r}: must lie in 0..90 degrees")
+        self.validate()
+
+    def validate(self) -> None:
+        validate_fields(self)
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -83,6 +80,7 @@ class IncidentGatherer:
         self.tri_emission = np.array([m.emissive[:3] for m in materials], np.float32)[scene.material_ids]
         textured = [m.base_color_texture is not None or m.emissive_texture is not None for m in materials]
         self.textured = np.array(textured, bool)[scene.material_ids]
+        self.two_sided = two_sided_triangles(scene)
         self.lightmap = np.ascontiguousarray(solved.lightmap, np.float32)
         self.dirs, self.weights = stratified_directions(settings.rays, np.random.default_rng(settings.seed))
 
@@ -125,20 +123,20 @@ class IncidentGatherer:
         d = self.rays_per_point
         o, dirs = hemisphere_rays(origins, normals, offset, rows, self.dirs, row_angles(rows, self.settings.seed))
         hits = self.tracer.intersect(o + self.t_near * dirs, dirs)
-        light, back, open_side = _volume_kernels.sum_rows(
-            hits.tri, hits.u, hits.v, hits.front, dirs, self.weights, self.tri_uv1, self.lightmap,
-            self.tri_rho, self.tri_emission, self.textured)
+        back = back_faces(hits.tri, hits.front, self.two_sided)
+        light, open_side = _volume_kernels.sum_rows(hits.tri, hits.u, hits.v, back, dirs, self.weights, self.tri_uv1,
+                                                    self.lightmap, self.tri_rho, self.tri_emission, self.textured)
         row_of_ray = np.arange(len(o)) // d
         weight = np.tile(self.weights, len(rows))
         escaped = hits.tri < 0
         sky = self.solved.scene.sky
         if sky is not None and escaped.any():
             _add_rows(light, row_of_ray[escaped], sky.radiance(dirs[escaped]) * weight[escaped, None])
-        textured = hits.front & self.textured[np.maximum(hits.tri, 0)]
+        textured = (hits.tri >= 0) & ~back & self.textured[np.maximum(hits.tri, 0)]
         if textured.any():
             B = self.solved.excident(hits.tri[textured], hits.u[textured], hits.v[textured])
             _add_rows(light, row_of_ray[textured], B * weight[textured, None])
-        return light, back, open_side
+        return light, back_share(back.reshape(len(rows), d)), open_side
 
 
 def _add_rows(total: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:

@@ -1,13 +1,10 @@
 """The light volume as the viewer and the renderer's command line take it."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..shading.ambient_cube import volume_texture
-from .io import HEADER, read_volume
-from .volume import LightVolume, sky_volume
+from .volume import sky_volume
 
 
 def volume_bundle(pack, settings) -> dict:
@@ -22,13 +19,3 @@ def volume_bundle(pack, settings) -> dict:
             "texture": pack.add("ambient_cube_volume", volume_texture(volume)),
             "inside": pack.add("ambient_cube_inside", volume.inside.astype(np.float32)),
             "baked": settings.volume is not None}
-
-
-def find_volume(path, bake_dir: Path | None) -> LightVolume | None:
-    """The volume at `path` (a directory or its header), else the one a bake directory holds
-    (written there by `patchlight volume BAKE -o BAKE`), else None."""
-    if path is not None:
-        return read_volume(path)
-    if bake_dir is not None and (Path(bake_dir) / HEADER).is_file():
-        return read_volume(bake_dir)
-    return None

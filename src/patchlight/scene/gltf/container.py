@@ -320,7 +320,7 @@ class Document:
         reason = None if _outside_allowed.get() else outside_reason(self.path.parent, unquote(uri))
         if reason is not None:
             raise self.fail(f"{what}: uri {uri[:60]!r} {reason}; only files inside the glTF's folder "
-                            f"are read (--allow-outside-files reads it)")
+                            f"are read (`allow_outside_files` reads it)")
         try:
             found = target.is_file()
         except OSError:  # a name too long for the file system
