@@ -132,7 +132,7 @@ def validate_fields(settings) -> None:
 @dataclass
 class BakeSettings:
     resolution: int | None = setting(None, "texels", "lightmap width = height", lo=16, hi=8192, whole=True,
-                                     typical="256-2048", none="from texels_per_unit")
+                                     typical="256-2048", none="from `texels_per_unit`")
     texels_per_unit: float = setting(16.0, "texels / m", "lightmap density when UVs are made", lo=TEXELS_PER_UNIT[0],
                                      hi=TEXELS_PER_UNIT[1], typical="8-64")
     padding: int = setting(2, "texels", "gap between UV charts", typical="2")

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .atlas.raster import texel_surface_points
 from .config import setting, validate_fields
 from .errors import PatchlightError
 from .imaging.dilate import dilate
@@ -87,6 +86,8 @@ def bake_normal_map(high: Scene, low: Scene, settings: NormalMapSettings, advanc
     if not np.any(low.uv0):
         raise PatchlightError(f"{low.label}: no TEXCOORD_0 to bake a normal map into")
     w, h = settings.width, settings.height
+    from .atlas.raster import texel_surface_points  # here: the command line reads NormalMapSettings at start
+
     surface = SurfaceArrays.from_scene(low)
     texel_y, texel_x, triangle, bary = texel_surface_points(low.positions, low.indices, low.uv0, w, h)
     if len(triangle) == 0:

@@ -117,6 +117,11 @@ def test_an_environment_point_inside_geometry_names_the_options():
     message = str(err.value)
     assert "inside geometry" in message and "`envmap_from` X,Y,Z" in message and "`sky` R,G,B" in message
     assert "\n" not in message
+    from patchlight.cli.parser import build_parser
+
+    for command in ("render", "view"):  # the command line (and the viewer page's note) names the flags
+        line = build_parser().commands[command].user_line(err.value)
+        assert "--envmap-from X,Y,Z" in line and "--sky R,G,B" in line and "`" not in line
 
 
 def test_lightmap_model_needs_a_lightmap():

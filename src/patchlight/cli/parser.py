@@ -61,12 +61,13 @@ class _Parser(argparse.ArgumentParser):
         (a SettingError's field, and `field` in backquotes) said as the flags that set them."""
         from ..errors import SettingError
 
+        line = str(exc)
         if isinstance(exc, SettingError) and self.flag(exc.field):
             value = exc.value
             if isinstance(value, (tuple, list)):
                 value = ",".join(f"{v:g}" for v in value)
-            return f"{self.flag(exc.field)} {value}: {exc.field.replace('_', ' ')} {exc.problem}"
-        return re.sub(r"`(\w+)`", lambda m: self.flag(m[1]) or m[0], str(exc))
+            line = f"{self.flag(exc.field)} {value}: {exc.field.replace('_', ' ')} {exc.problem}"
+        return re.sub(r"`(\w+)`", lambda m: self.flag(m[1]) or m[0], line)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -47,13 +47,15 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..inputs import open_input
     from ..viewer.app import make_server
+    from .parser import build_parser
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     patch = parse_texel(args.patch) if args.patch else None
     target, settings = load_target_and_settings(args, args.model)
     compare = open_input(args.compare).target()[0] if args.compare else None
-    server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare)
+    say = build_parser().commands["view"].user_line  # the page's note names flags, as errors here do
+    server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare, say)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()

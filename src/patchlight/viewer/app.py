@@ -22,7 +22,8 @@ EXPOSURE_PREVIEW = 96  # pixels on a side of the CPU render that sets the automa
 
 
 def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposure: float | None = None,
-                envmap_from=None, patch: tuple[int, int] | None = None, compare: Target | None = None) -> ViewerServer:
+                envmap_from=None, patch: tuple[int, int] | None = None, compare: Target | None = None,
+                say=str) -> ViewerServer:
     """A ViewerServer for `target`: default camera, the environment cube (from the sky, or
     rendered from `envmap_from` or a point the renderer chooses), the sky behind the scene,
     and the exposure (automatic: from a small CPU render). A bake with texels.npz answers the
@@ -32,7 +33,8 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
     The page may switch to the envmap or hemisphere-radiosity model at any time, so the cube
     is always made; when no point for it could be found (and none was asked for) and the first
     model does not need it, the page gets a black cube and a note naming the options instead
-    of the viewer failing."""
+    of the viewer failing (say(error): the note's words for the error; the command line's name
+    its flags)."""
     patch_view = None if target.texels is None else PatchEndpoint(target.bake_dir)
     if patch is not None:
         if patch_view is None:
@@ -51,7 +53,7 @@ def make_server(target: Target, settings: ShadingSettings, port: int = 0, exposu
         if envmap_from is not None or settings.model in ENV_MODELS:
             raise
         env = np.zeros((6, ENV_SIZE, ENV_SIZE, 4), np.float32)
-        env_note = f"envmap and hemisphere-radiosity reflect black: {exc}"
+        env_note = f"envmap and hemisphere-radiosity reflect black: {say(exc)}"
     if exposure is None:
         preview = renderer.render(settings, camera, EXPOSURE_PREVIEW, EXPOSURE_PREVIEW)
         exposure = auto_exposure(preview.radiance[preview.covered]) if preview.covered.any() else 1.0
