@@ -96,8 +96,8 @@ def ensure_lightmap_uvs(scene: Scene, texels_per_unit: float | None = None, reso
     """
     _check_options(texels_per_unit, resolution, padding)
     if resolution is not None and resolution > max_atlas:
-        raise PatchlightError(f"resolution: {resolution} is larger than the atlas limit {max_atlas} "
-                              f"(--max-atlas); raise it or lower --resolution")
+        raise PatchlightError(f"`resolution` {resolution} is larger than the atlas limit {max_atlas} "
+                              f"(`max_atlas`); raise it or lower `resolution`")
     density = float(texels_per_unit) if texels_per_unit is not None else DEFAULT_TEXELS_PER_UNIT
     names, triangle, scale = _object_scales(scene, density, densities or {})
     if scene.uv1 is not None:
@@ -170,7 +170,7 @@ def _into_atlases(scene: Scene, uv_texels: np.ndarray, units: tuple[np.ndarray, 
             if k == len(used):
                 name = unit_names[unit[np.flatnonzero(np.isin(chart, members))[0]]]
                 raise PatchlightError(f"{scene.label}: the charts of {name} need more than one "
-                                      f"{limit}x{limit} atlas; raise --max-atlas or lower its density")
+                                      f"{limit}x{limit} atlas; raise `max_atlas` or lower its density")
         atlas_of[mine], at[mine] = k, np.stack([x_at, y_at], axis=1)
         used[k:k + 1] = [(int(width), int(height))]
     width = max(MIN_SIZE, _round_up4(max(w for w, _ in used)))
