@@ -21,7 +21,25 @@ from patchlight.volumes.grid import GridSettings
 from patchlight.volumes.probes import VolumeSettings
 
 REPO = Path(__file__).resolve().parents[1]
-SETTINGS = (BakeSettings, VolumeSettings, GridSettings, GroundMapSettings, ShadingSettings, Camera, NormalMapSettings)
+# every settings class, with what its table in docs/settings.md says about it
+SETTINGS = {
+    BakeSettings: "`patchlight bake` (and the bakes `volume` and `groundmap` make of a scene).",
+    VolumeSettings: "How each probe of a light volume gathers (`patchlight volume`).",
+    GridSettings: "Where a light volume's probes go (`patchlight volume --spacing/--dims/--bounds`).",
+    GroundMapSettings: "`patchlight groundmap` (`offset` is the flag `--offset-distance`).",
+    ShadingSettings: "What decides a shaded pixel in `patchlight render` and `view` (`lightmap_specular` is "
+                     "`--specular`, `ambient_cube_naive` `--naive-weights`).",
+    Camera: "`patchlight render --camera EX,EY,EZ TX,TY,TZ FOV`.",
+    NormalMapSettings: "`patchlight normalmap` (`dilation` is `--dilate`; `width` and `height` are `--size WxH`).",
+}
+DOC_HEAD = """# Settings
+
+Generated from the declarations on the fields of each settings class (`patchlight.config.setting`,
+tables by `settings_table(cls)`; `python tests/test_settings.py` writes this file). The same
+declarations check the settings (`validate`, a `SettingError` naming the field; the command line
+names the flag instead) and give the commands' `--help` texts with their defaults.
+`tests/test_settings.py` fails when this file and the code disagree.
+"""
 REQUIRED = {Camera: {"eye": (0.0, 1.0, 5.0), "target": (0.0, 0.0, 0.0)}}  # fields without a default
 COMMANDS = {"bake": (BakeSettings,), "volume": (VolumeSettings, GridSettings), "groundmap": (GroundMapSettings,),
             "normalmap": (NormalMapSettings,), "render": (ShadingSettings, Camera), "view": (ShadingSettings,)}
@@ -59,10 +77,14 @@ def probes(meta: dict) -> tuple[list, list]:
     return accepted, refused
 
 
+def settings_doc() -> str:
+    """docs/settings.md as the declarations make it."""
+    return DOC_HEAD + "".join(f"\n## {cls.__name__}\n\n`{cls.__module__}.{cls.__name__}`: {about}\n\n"
+                              f"{settings_table(cls)}" for cls, about in SETTINGS.items())
+
+
 def test_docs_hold_the_tables_the_declarations_make():
-    text = (REPO / "docs" / "settings.md").read_text()
-    for cls in SETTINGS:
-        assert f"## {cls.__name__}\n" in text and settings_table(cls) in text, f"docs/settings.md: {cls.__name__}"
+    assert (REPO / "docs" / "settings.md").read_text() == settings_doc(), "run python tests/test_settings.py"
 
 
 @pytest.mark.parametrize("cls", SETTINGS, ids=lambda c: c.__name__)
@@ -173,3 +195,7 @@ def test_readme_defaults_agree_with_the_declarations():
     assert numbers("`--accuracy A`, `--first-accuracy A0`, `--no-adaptive`") == [d.accuracy, d.first_accuracy]
     assert numbers("`--max-memory GiB`") == [d.max_memory / 2**30]
     assert numbers("`--resolution N` / `--texels-per-unit T`") == [d.texels_per_unit]
+
+
+if __name__ == "__main__":
+    (REPO / "docs" / "settings.md").write_text(settings_doc())

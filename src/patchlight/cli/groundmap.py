@@ -16,12 +16,12 @@ import os
 import sys
 from pathlib import Path
 
-from ..errors import PatchlightError
+from ..config import BakeSettings
 from .options import about, add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
 from .values import parse_area
 
-DENSE_TEXELS_PER_UNIT = 16.0  # the bake's default lightmap density ...
+DENSE_TEXELS_PER_UNIT = BakeSettings.texels_per_unit  # the bake's default lightmap density ...
 LEVEL_TEXELS = 320            # ... lowered so a large level's width spans this many texels
 
 
@@ -72,8 +72,6 @@ def bake_density(args, scene) -> float:
     if density is None:
         lo, hi = scene.bounds()
         density = min(DENSE_TEXELS_PER_UNIT, LEVEL_TEXELS / max(float(hi[0] - lo[0]), float(hi[2] - lo[2]), 1e-3))
-    if not density > 0:
-        raise PatchlightError("--texels-per-unit must be positive")
     return density
 
 
@@ -81,7 +79,6 @@ def run(args) -> int:
     """Check everything that needs no light, then solve (read the bake, or bake the scene in
     memory), make the map and write it (with the bake made here) as one set."""
     from ..bake import bake
-    from ..config import BakeSettings
     from ..ground.groundmap import make_groundmap, plan_groundmap, write_groundmap
     from ..imaging.io import check_output_dir
     from ..bakedir import recorded_sun_angle, require_bake_dir
