@@ -212,6 +212,10 @@ def test_render_volume_groundmap_vertexbake_and_viewer_read_three_atlases(bakes,
 
     target, _ = open_input(str(bakes / "three")).target()  # what the viewer shows: the atlases stacked
     assert target.lightmap.shape[:2] == target.texels.status.shape and target.scene.atlases == 3
+    from patchlight.viewer.bundle import _Packer, texels_bundle
+
+    texels = texels_bundle(_Packer(), target.texels, target.bake_dir)  # the page's checker legend
+    assert texels["atlases"] == 3 and len(texels["objects"]) == 17  # the floor and 16 boxes
 
 
 def test_three_js_shows_each_material_with_its_own_atlas(browser, bakes, tmp_path):

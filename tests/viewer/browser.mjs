@@ -245,6 +245,7 @@ async function inspect(url, scriptFile, outDir) {
       }
       await settle();
       entry.state = await state();
+      entry.legend = await page.textContent('#legend');
       if (step.shot) {
         const pixels = await page.evaluate(() => {
           const bytes = window.patchlight.viewer.pixels();

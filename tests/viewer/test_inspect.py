@@ -39,6 +39,7 @@ pytestmark = pytest.mark.skipif(three_missing() is not None, reason=str(three_mi
 WIDTH, HEIGHT = 640, 480   # browser.mjs's viewport: the canvas fills it
 MEASURE = 64               # the page measures its automatic exposure on a 64-pixel-wide picture
 PROBES = [[150, 330], [120, 120]]  # canvas pixels clicked (left of the panel)
+CHECKER_ON = 13                     # the step that turns the texel checker on
 STEPS = [
     {"shot": "lightmap"},
     {"select": "#model", "value": "lambert", "shot": "lambert"},
@@ -52,6 +53,8 @@ STEPS = [
     {"click": "#frame-all", "shot": "framed"},
     {"click": "#camera-reset"},
     *({"probe": p} for p in PROBES),
+    {"click": "#checker"},  # on (CHECKER_ON), then off again
+    {"click": "#checker"},
     {"shot": "single"},
     {"select": "#split", "value": "bake", "shot": "split"},
     {"select": "#split", "value": ""},
@@ -313,3 +316,16 @@ def test_the_patch_route_and_view_patch_refuse_what_is_not_there(baked, capsys):
     assert "not a bake with texels.npz" in capsys.readouterr().err
     assert main(["view", str(baked), "--patch", f"{w + 3},0"]) == 2
     assert "no patch there" in capsys.readouterr().err
+
+
+def test_the_texel_checker_legend_names_each_objects_density(run, baked):
+    """The checker's squares are texels, so each object shows its own density; the legend
+    names the lightmap's size and each object's texels per metre as bake.json measured them."""
+    log, _, _ = run
+    legend = step(log, CHECKER_ON)["legend"]
+    summary = json.loads((baked / "bake.json").read_text())
+    width, height = summary["resolution"]
+    assert f"every other texel ({width} x {height})" in legend, legend
+    for o in summary["uv"]["objects"]:
+        assert f"{o['name']}: {o['texels_per_unit']:.1f} texels/m" in legend, legend
+    assert all("texels/m" not in step(log, k)["legend"] for k in (CHECKER_ON - 1, CHECKER_ON + 1))  # checker off

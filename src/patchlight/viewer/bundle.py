@@ -28,6 +28,8 @@ int32); the manifest names them:
 from __future__ import annotations
 
 
+from pathlib import Path
+
 import numpy as np
 
 from ..ground.viewer import radiosity_bundle
@@ -39,7 +41,7 @@ from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
 from ..shading.models import ShadingSettings
-from ..bakedir import STATUS_NAMES, Texels
+from ..bakedir import MARKER, STATUS_NAMES, Texels, atlas_count, read_summary
 from ..volumes.viewer import volume_bundle
 
 
@@ -116,7 +118,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "env_note": env_note,
         "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
         "exposure_rule": {"percentile": AUTO_PERCENTILE, "target": AUTO_TARGET, "luminance": LUMINANCE},
-        "texels": texels_bundle(pack, target.texels),
+        "texels": texels_bundle(pack, target.texels, target.bake_dir),
         "patch": None if patch is None else list(patch),
         "compare": None if compare is None else {"name": compare.name,
                                                  "lightmap": pack.add_texture("compare_lightmap", compare.lightmap)},
@@ -135,14 +137,19 @@ def _directional_bundle(pack: _Packer, directional) -> dict | None:
             "maps": [pack.add_texture(f"directional_map{k}", m) for k, m in enumerate(directional.maps)]}
 
 
-def texels_bundle(pack: _Packer, texels: Texels | None) -> dict | None:
+def texels_bundle(pack: _Packer, texels: Texels | None, bake_dir: Path | None = None) -> dict | None:
     """The manifest's `texels`: array names of a bake's texels.npz (passes as float16 RGBA
-    textures), with the names and debug colours of the texel status."""
+    textures), with the names and debug colours of the texel status, and from bake.json the
+    atlases (count; the arrays hold them stacked) and each object's texels per metre."""
     if texels is None:
         return None
     height, width = texels.status.shape
+    known = bake_dir is not None and (Path(bake_dir) / MARKER).is_file()
+    objects = ((read_summary(bake_dir).get("uv") or {}).get("objects") or []) if known else []
     return {
-        "width": width, "height": height,
+        "width": width, "height": height, "atlases": atlas_count(bake_dir) if known else 1,
+        "objects": [{"name": str(o.get("name")), "texels_per_unit": float(o.get("texels_per_unit"))}
+                    for o in objects if isinstance(o, dict) and isinstance(o.get("texels_per_unit"), (int, float))],
         "passes": [pack.add_texture(f"pass_{k}", image, np.float16) for k, image in enumerate(texels.passes, start=1)],
         "status": pack.add("status", texels.status, np.uint8),
         "chart": pack.add("chart", texels.chart, np.int32),

@@ -9,6 +9,7 @@ export const OVERLAYS = { light: 'incident light I', adaptive: 'gathered / inter
 const OUTLINE = [255, 255, 255, 255];  // chart borders
 const CHECKER = [0, 0, 0, 90];         // every other texel darkened (alpha of 255)
 const PROBED = [0, 255, 255];          // the probed texel in the atlas view
+const MAX_OBJECTS = 12;                // objects whose texel density the checker's legend names
 
 // Linear value -> display byte: film exposure 1 - exp(-k x), then sRGB (display.glsl).
 export function displayByte(value, exposure) {
@@ -153,7 +154,14 @@ export class Inspector {
     if (overlay === 'charts') rows.push(['linear-gradient(90deg,#c66,#6c6,#66c)', 'one colour per UV chart']);
     if (overlay === 'light') rows.push(['linear-gradient(90deg,#000,#fff)', 'incident light I, exposed']);
     if (outlines) rows.push([rgb(OUTLINE), 'chart border texels']);
-    if (checker) rows.push([`rgba(0,0,0,${CHECKER[3] / 255})`, `every other texel (${this.width} x ${this.height})`]);
+    if (checker) {
+      const atlases = this.t.atlases > 1 ? `${this.t.atlases} atlases of ${this.width} x ${this.height / this.t.atlases}`
+        : `${this.width} x ${this.height}`;
+      rows.push([`rgba(0,0,0,${CHECKER[3] / 255})`, `every other texel (${atlases})`]);
+      // each object's squares are its own texels: its density, as bake.json measured it
+      for (const o of this.t.objects.slice(0, MAX_OBJECTS)) rows.push(['transparent', `${o.name}: ${o.texels_per_unit.toFixed(1)} texels/m`]);
+      if (this.t.objects.length > MAX_OBJECTS) rows.push(['transparent', `... ${this.t.objects.length - MAX_OBJECTS} more objects`]);
+    }
     return rows;
   }
 }
