@@ -18,10 +18,11 @@ import json
 import numpy as np
 import pytest
 from browser_support import three_missing
+from render_scenes import _quad, scene_from_parts
 
 from patchlight.cli.main import main
 from patchlight.imaging.io import read_image
-from patchlight.scene import load_scene
+from patchlight.scene import Light, Material, Scene, Sky, load_scene
 from patchlight.scene.gltf import save_baked_glb
 from patchlight.scene.gltf.container import pack_glb, split_glb
 from patchlight.shading.surface import vertex_tangents
@@ -60,13 +61,14 @@ def cpu_render(bake_dir, camera: dict, out, *options) -> np.ndarray:
     return np.round(read_image(out) * 255).astype(np.int32)
 
 
-def cpu_and_three(browser, bake_dir, tmp_path, *options, specular=(False,)) -> tuple[np.ndarray, np.ndarray, dict]:
+def cpu_and_three(browser, bake_dir, tmp_path, *options, specular=(False,), camera=None) -> tuple[np.ndarray, np.ndarray, dict]:
     """(CPU picture (H, W, 3), three.js picture (H, W, 4), the three.js materials' maps) of the
-    bake from its default camera, int32 0..255: `patchlight render --model lightmap` (or the
-    render `options`), and the viewer's scene.glb view. specular: the page's lightmap specular
-    (the plugin's highlight) in each three.js picture; with several, a list of pictures."""
+    bake from `camera` ({eye, target, fov}; default: the bake's default camera), int32 0..255:
+    `patchlight render --model lightmap` (or the render `options`), and the viewer's scene.glb
+    view. specular: the page's lightmap specular (the plugin's highlight) in each three.js
+    picture; with several, a list of pictures."""
     target, _ = open_input(str(bake_dir)).target()
-    c = Renderer(target).default_camera().to_json()
+    c = camera or Renderer(target).default_camera().to_json()
     cpu = cpu_render(bake_dir, c, tmp_path / "cpu.png", *(options or ("--model", "lightmap")))
     specs = [{"name": f"engine{k}", "model": "lightmap", "engine": True, "lightmap_specular": on, "camera": c,
               "width": SIZE, "height": SIZE, "exposure": EXPOSURE} for k, on in enumerate(specular)]
@@ -112,12 +114,12 @@ def test_lights_kept_dynamic_stay_on_in_three_js(browser, tmp_path_factory, tmp_
     assert (gpu[..., :3] - cpu)[covered].mean() > 10
 
 
-def bumpy_scene(folder, name: str = "room", gloss: bool = False) -> str:
-    """The built-in scene `name` as a glTF file whose materials carry a normal map of smooth
-    bumps (a height 0.1 sin(2 pi u) sin(2 pi v) over TEXCOORD_0 in metres, tilting the normal
-    by up to 32 degrees), with its tangents (TANGENT), so three.js and the CPU build the same
-    frame; with `gloss` a white colour map whose alpha, the gloss, runs 0.2..0.8 along u."""
-    scene = load_scene(name)
+def bumpy_scene(folder, name: str = "room", gloss: bool = False, scene: Scene | None = None) -> str:
+    """The built-in scene `name` (or `scene`) as a glTF file whose materials carry a normal map
+    of smooth bumps (a height 0.1 sin(2 pi u) sin(2 pi v) over TEXCOORD_0 in metres, tilting the
+    normal by up to 32 degrees), with its tangents (TANGENT), so three.js and the CPU build the
+    same frame; with `gloss` a white colour map whose alpha, the gloss, runs 0.2..0.8 along u."""
+    scene = scene or load_scene(name)
     t = 2 * np.pi * (np.arange(64) + 0.5) / 64
     u, v = np.meshgrid(t, t)
     height = 0.1 * 2 * np.pi  # the slope's amplitude
@@ -180,3 +182,27 @@ def test_the_plugins_highlight_matches_the_cpu_directional_specular(browser, tmp
     print(f"without the highlight: {np.mean(missing > 4):.0%} of pixels off by more than 4/255, "
           f"max {missing.max()}/255")
     assert np.mean(missing > 4) > 0.05 and missing.max() > 20
+
+
+def test_a_double_sided_normal_mapped_quad_seen_from_behind_matches_three_js(browser, tmp_path_factory, tmp_path):
+    """A double-sided bumpy quad under a sky and a sun slanting along its tangent, baked
+    dominant, seen from below: three.js turns tangent, bitangent and normal on a back face (as
+    glTF's sample viewer), and so does `render --model lightmap-directional --normal-map`
+    (before, its back face turned the bitangent and normal only: the bumps' tangent slope
+    leaned the wrong way)."""
+    if three_missing():
+        pytest.skip(three_missing())
+    quad = _quad([[-1.5, 0, 1.5], [1.5, 0, 1.5], [1.5, 0, -1.5], [-1.5, 0, -1.5]], [0, 1, 0])
+    material = Material(name="sheet", base_color=np.float32([0.8, 0.75, 0.7, 1.0]), double_sided=True)
+    sun = Light("directional", np.ones(3, np.float32), 4.0, direction=np.float32([-0.6, -0.8, 0.0]), name="sun")
+    scene = scene_from_parts([quad], [material], [0], [sun], Sky.uniform([0.6, 0.7, 0.9]))
+    scene.name = "sheet"
+    folder = tmp_path_factory.mktemp("sheet")
+    out = folder / "dominant"
+    assert main(["bake", bumpy_scene(folder, "sheet", scene=scene), "-o", str(out), "--resolution", "64",
+                 "--rays", "64", "--directional", "dominant", "--quiet"]) == 0
+    below = {"eye": [0.5, -2.6, 1.4], "target": [0.0, 0.0, 0.0], "fov": 50.0}
+    cpu, gpu, materials = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map",
+                                        camera=below)
+    assert materials and all(m["normalMap"] for m in materials.values()), materials
+    assert smooth_difference(cpu, gpu, "plugin vs CPU, back face", least=0.3) <= 2

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from browser_support import difference
-from render_scenes import SHOWCASE_CAMERA, _box, scene_from_parts, showcase_target, uv_sphere
+from render_scenes import (SHOWCASE_CAMERA, _box, _quad, directional_maps, lightmap_image, normal_texture,
+                           scene_from_parts, showcase_target, uv_sphere)
 
 from patchlight.render import Camera, Renderer, target_settings
 from patchlight.render.output import display_pixels
@@ -227,3 +228,32 @@ def test_dominant_direction_lightmaps_match_too(browser, tmp_path):
         mean, p99 = difference(pictures[case["name"]], *cpu_picture((target, renderer), case))
         print(f"{case['name']}: mean {mean:.3f}/255, p99 {p99:.1f}/255")
         assert mean < 1.0 and p99 < 4.0
+
+
+def test_a_double_sided_normal_mapped_quad_matches_from_behind(browser, tmp_path):
+    """Seen from below, a double-sided normal-mapped quad lit from below: the GLSL and the CPU
+    turn the whole tangent frame on the back face (glTF's convention), model by model."""
+    quad = _quad([[-2, 0, 2], [2, 0, 2], [2, 0, -2], [-2, 0, -2]], [0, 1, 0])
+    material = Material(name="sheet", base_color=np.float32([0.8, 0.8, 0.75, 1.0]), double_sided=True,
+                        normal_texture=normal_texture(), shininess=12.0)
+    lights = [_light("directional", (1.0, 0.95, 0.9), 3.0, direction=(0.6, 0.7, 0.2)),
+              _light("point", (0.4, 0.6, 1.0), 6.0, position=(-0.8, -1.2, 0.5), range_=5.0)]
+    target = Target.from_scene(scene_from_parts([quad], [material], [0], lights, uv1_boxes=[(0.0, 0.0, 1.0, 1.0)]),
+                               lightmap_image())
+    target.directional = directional_maps("dominant")
+    camera = {"eye": [0.6, -3.0, 1.5], "target": [0.0, 0.0, 0.0], "fov": 50.0}
+    cases = [{"name": "lambert", "model": "lambert", "normal_map": True},
+             {"name": "blinn-phong", "model": "blinn-phong", "normal_map": True},
+             {"name": "directional", "model": "lightmap-directional", "normal_map": True, "lightmap_specular": True}]
+    specs = [dict(c, camera=camera, width=SIZE, height=SIZE, exposure=EXPOSURE) for c in cases]
+    with make_server(target, target_settings(target), exposure=EXPOSURE) as server:
+        pictures, _ = browser.cases(server.url, specs, tmp_path)
+    renderer = Renderer(target)
+    view = Camera(np.array(camera["eye"]), np.array(camera["target"]), camera["fov"])
+    for case in cases:
+        settings = target_settings(target, model=case["model"], normal_map=True,
+                                   lightmap_specular=case.get("lightmap_specular", False))
+        result = renderer.render(settings, view, SIZE, SIZE)
+        mean, p99 = difference(pictures[case["name"]], display_pixels(result.radiance, EXPOSURE), result.covered)
+        print(f"back face, {case['name']}: mean {mean:.3f}/255, p99 {p99:.1f}/255")
+        assert mean < 1.0 and p99 < 4.0, case["name"]

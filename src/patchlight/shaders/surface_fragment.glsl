@@ -1,6 +1,7 @@
 // surface_fragment.glsl: one pixel of a surface. Per pixel (the default) the light sum is
 // evaluated here with the interpolated normal, flipped on the back of double-sided
-// surfaces and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
+// surfaces (under NORMAL_MAP the perturbed normal flips whole: glTF's back face negates
+// tangent, bitangent and normal alike) and, under NORMAL_MAP, perturbed by the normal map with the colour alpha as
 // gloss (the specular is limited to min(specular, color.w)). The
 // lightmap-directional model redistributes the baked light for that normal.
 // OVERLAY shows a lightmap-space debug picture instead: with OVERLAY_LIGHT light values
@@ -33,11 +34,12 @@ void main() {
 #ifdef PER_VERTEX
     Lighting lit = Lighting(v_diffuse, v_specular, v_reflected, v_fresnel);
 #else
-    vec3 N0 = normalize(v_normal) * (gl_FrontFacing ? 1.0 : -1.0);
+    float facing = gl_FrontFacing ? 1.0 : -1.0;
+    vec3 N0 = normalize(v_normal) * facing;
     vec3 N = N0;
     float gloss = 1.0;
-#ifdef NORMAL_MAP
-    N = perturb_normal(N, v_tangent, decode_normal(texture(normal_map, v_uv0).rgb));
+#ifdef NORMAL_MAP  // glTF: a back face turns the whole frame (T, B, N), so the mapped normal flips
+    N = perturb_normal(normalize(v_normal), v_tangent, decode_normal(texture(normal_map, v_uv0).rgb)) * facing;
     gloss = color.a;
 #endif
     vec3 V = normalize(cameraPosition - v_position);

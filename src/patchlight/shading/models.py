@@ -230,11 +230,12 @@ def shade_fragments(settings: ShadingSettings, frags: Fragments, materials: Mate
     if frags.vertex_lighting is not None:
         lit = frags.vertex_lighting
     else:
-        N0 = N = normalize(frags.normal) * np.where(frags.front, 1.0, -1.0).astype(np.float32)[:, None]
+        facing = np.where(frags.front, 1.0, -1.0).astype(np.float32)[:, None]
+        N0 = N = normalize(frags.normal) * facing
         gloss = np.float32(1.0)
-        if settings.normal_map:
+        if settings.normal_map:  # glTF: a back face turns the whole frame (T, B, N), so the mapped normal flips
             texel = materials.sample(materials.normal_maps, mat, frags.uv0, (0.5, 0.5, 1.0))
-            N = perturb_normal(N, frags.tangent, decode_normal(texel))
+            N = perturb_normal(normalize(frags.normal), frags.tangent, decode_normal(texel)) * facing
             gloss = color[:, 3]
         V = normalize(eye.astype(np.float32) - frags.position)
         lit = light_surface(settings, frags.position, N, V, gloss, shininess, reflectivity)

@@ -87,7 +87,8 @@ def decode_normal(t: np.ndarray) -> np.ndarray:
 def perturb_normal(N: np.ndarray, tangent: np.ndarray, n: np.ndarray) -> np.ndarray:
     """normal_map.glsl: tangent-space n (..., 3) to world space in the frame (T, B, N).
 
-    tangent (..., 4): xyz the interpolated tangent, w the handedness."""
+    tangent (..., 4): xyz the interpolated tangent, w the handedness; N the front face's
+    normal (a back face negates the result: glTF negates T, B and N alike)."""
     t = tangent[..., :3]
     T = normalize(t - N * dot(N, t)[..., None])
     sign = np.where(tangent[..., 3] < 0.0, -1.0, 1.0).astype(N.dtype)[..., None]
