@@ -10,7 +10,7 @@ from ..errors import PatchlightError
 from .options import DEFAULTS, about, add_scene_options, declared_field, load_lit_scene
 from .parser import finite_number, writes_output
 
-MAX_MEMORY_GIB = 1 << 20
+MAX_MEMORY_GIB = declared_field("max_memory").metadata["hi"] // 2**30  # --max-memory counts GiB
 
 
 def register(sub) -> None:
