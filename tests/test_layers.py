@@ -175,3 +175,12 @@ def test_relative_and_lazy_imports_are_resolved(tmp_path):
     (tmp_path / "scene" / "x.py").write_text("def f():\n    from ..ground.track import track\n    from . import model\n")
     assert [t[:2] for t in _imports(tmp_path / "scene" / "x.py", tmp_path)] == [
         (["ground", "track"], ["track"]), (["scene", "model"], [])]
+
+
+if __name__ == "__main__":  # python tests/test_layers.py: the package graph, top layer first, and the largest modules
+    graph = package_graph()
+    for package in sorted(graph, key=lambda p: -LAYER[p]):
+        print(f"{package} -> {', '.join(sorted(graph[package], key=lambda p: -LAYER[p]))}")
+    print(f"{sum(map(len, graph.values()))} edges between {len(LAYER)} packages and top-level modules")
+    sizes = sorted(((len(p.read_text().splitlines()), p.relative_to(ROOT)) for p in _sources()), reverse=True)
+    print("largest modules:", ", ".join(f"{path} {lines}" for lines, path in sizes[:5]))
