@@ -1,7 +1,8 @@
 """The memory estimate against the measured peak: bakes a scene through the CLI, one child
 process per resolution, and prints bake.json's estimated peak beside the child's peak
-resident memory (its whole life, writing the files included), their ratio, the seconds
-beside bake.json's estimate of them, and F.
+resident memory (its whole life, writing the files included), their ratio, the seconds and
+the CPU seconds over the cores (what an idle machine would take) beside bake.json's
+estimate of them, and F.
 Run by hand, one resolution at a time on a shared machine:
     .venv/bin/python bench/bench_memory.py [--scene room] [--resolution 1024 2048 ...]
 """
@@ -28,9 +29,11 @@ def measure(scene: str, resolution: int, out: Path) -> None:
         return
     summary = json.loads((out / "bake.json").read_text())
     estimate, peak = summary["memory"]["estimated_peak_bytes"], usage.ru_maxrss * 1024
+    cpu, cores = usage.ru_utime + usage.ru_stime, os.cpu_count() or 1
     f = summary["form_factor_matrix"]
     print(f"{scene} {resolution}x{resolution}: estimate {estimate / 2**30:.2f} GiB, peak {peak / 2**30:.2f} GiB, "
-          f"estimate / peak {estimate / peak:.2f}; {seconds:.0f} s (estimate {summary['estimated_seconds']:.0f} s); "
+          f"estimate / peak {estimate / peak:.2f}; {seconds:.0f} s, CPU {cpu:.0f} s = {cpu / cores:.0f} s on "
+          f"{cores} idle cores (estimate {summary['estimated_seconds']:.0f} s); "
           f"F {f['bytes'] / 2**30:.2f} GiB "
           f"{'kept' if f['kept'] else 'dropped'}, {summary['computed_patches']} of {summary['patches']} gathered")
 

@@ -11,6 +11,7 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from ..errors import PatchlightError
@@ -29,6 +30,17 @@ class Hits:
     v: np.ndarray
     t: np.ndarray
     front: np.ndarray
+
+
+@nb.njit(cache=True, nogil=True)
+def _front_faces(tri, normal, directions):
+    """(N,) bool: rays that hit a triangle (tri >= 0) against its geometric normal (N, 3) f32,
+    the dot product in float32, summed in order x, y, z."""
+    out = np.empty(tri.shape[0], np.bool_)
+    for i in range(tri.shape[0]):
+        dot = normal[i, 0] * directions[i, 0] + normal[i, 1] * directions[i, 1] + normal[i, 2] * directions[i, 2]
+        out[i] = tri[i] >= 0 and dot < np.float32(0.0)
+    return out
 
 
 def _threads() -> int:
@@ -89,7 +101,7 @@ class Tracer:
         self._count(len(o))
         r = self._ready().run(o, d, output=1)
         tri = r["primID"].astype(np.int32, copy=False)
-        front = (np.einsum("ij,ij->i", r["Ng"], d) < 0) & (tri >= 0)
+        front = _front_faces(tri, r["Ng"], d)
         return Hits(tri, r["u"], r["v"], r["tfar"], front)
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
