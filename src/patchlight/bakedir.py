@@ -6,7 +6,7 @@ A bake directory (written by `patchlight bake` or `write_bake`) holds
                     validity: 1 for texels with light of their own (a patch on a visible
                     surface, computed or interpolated), 0 inside geometry and in the padding
     scene.glb       the scene with its lightmap UVs in TEXCOORD_1, the lightmap textures
-                    (MOZ_lightmap) and the directional lightmap, if any and of one atlas
+                    (MOZ_lightmap) and the directional lightmap, if any
                     (PATCHLIGHT_lightmap_directional; patchlight.scene.gltf)
     lightmap.png    the lightmap exposed for display (sRGB)
     adaptive.png    the adaptive sampler's decisions (radiosity.adaptive.debug_image)
@@ -255,8 +255,9 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
         write_png(staging / name, pixels)
     scale = encode_lightmap(result.lightmap).scale  # one scale for every atlas
     encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
-    directional = None if result.directional is None or count > 1 else encode_directional(
-        result.directional.mode, dict(zip(_layers(result.directional.mode), result.directional.maps)), scale)
+    directional = None if result.directional is None else [
+        encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)
+        for maps in np.split(result.directional.maps, count, axis=1)]
     save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
                    directional=directional)
     write_json(staging / MARKER, summary)

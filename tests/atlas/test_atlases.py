@@ -262,3 +262,34 @@ def test_directional_maps_of_three_atlases_are_three_files_read_back_stacked(tmp
     (tmp_path / bakedir.MARKER).write_text(json.dumps({"atlases": {"count": 0}}))
     with pytest.raises(PatchlightError, match="atlases count 0"):
         bakedir.read_directional(tmp_path)
+
+
+def test_a_directional_bake_of_three_atlases_gives_each_material_its_atlas_maps(bakes, tmp_path):
+    """--directional sh over three atlases: lightmap_sh_0..2.exr, and in scene.glb each
+    material's PATCHLIGHT_lightmap_directional names its own atlas's EXRs (L0 = that file's
+    L0 / scale, to half-float precision); the validator finds no error."""
+    from patchlight.imaging.io import read_exr, read_exr_layers
+    from patchlight.scene.gltf.container import split_glb
+
+    out = bakes / "directional"
+    assert main(["bake", str(bakes / "boxes.glb"), "-o", str(out), "--max-atlas", "96", "--directional", "sh",
+                 *QUICK]) == 0
+    assert all((out / f"lightmap_sh_{k}.exr").is_file() for k in range(3))
+    text, blob = split_glb((out / "scene.glb").read_bytes(), out / "scene.glb")
+    doc = json.loads(text)
+    atlas_of = {t: k for k, t in enumerate(doc["extras"]["patchlight"]["lightmap"]["textures"])}
+    scale = doc["extras"]["patchlight"]["lightmap"]["scale"]
+    for material in doc["materials"]:
+        atlas = atlas_of[material["extensions"]["MOZ_lightmap"]["index"]]
+        first = doc["textures"][material["extensions"]["PATCHLIGHT_lightmap_directional"]["maps"][0]["index"]]
+        assert first["name"].endswith(f"_atlas{atlas}")
+        image = doc["images"][first["extensions"]["PATCHLIGHT_texture_exr"]["source"]]
+        view = doc["bufferViews"][image["bufferView"]]
+        (tmp_path / "l0.exr").write_bytes(blob[view.get("byteOffset", 0):view.get("byteOffset", 0) + view["byteLength"]])
+        l0 = read_exr_layers(out / f"lightmap_sh_{atlas}.exr", ("L0",))[0]
+        np.testing.assert_allclose(read_exr(tmp_path / "l0.exr"), l0 / scale, rtol=2e-3, atol=1e-6)
+    reason = validator_missing()
+    if reason:
+        pytest.skip(reason)
+    report, = validate(out / "scene.glb")
+    assert problems(report) == []

@@ -114,6 +114,8 @@ such texture per atlas, all of one scale; TEXCOORD_1 written in each vertex's ow
 material references its atlas's texture, a material drawn on several atlases getting a copy
 per further atlas, "<name> (atlas k)"; the description lists "textures" (atlas by atlas)
 instead of "texture". `load_gltf` stacks TEXCOORD_1 again from it (`baked.atlas_of_materials`).
+The directional lightmap comes one set per atlas (textures "patchlight_directional_L0_atlas1",
+...), each material naming its own atlas's.
 """
 from __future__ import annotations
 
@@ -157,6 +159,9 @@ def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | list[EncodedL
         if len(lightmap) != scene.atlases:
             raise ValueError(f"save_baked_glb: {len(lightmap)} lightmap images for {scene.atlases} atlases")
         lightmap_description(lightmap, lightmap_meta or {})  # refuse bad input before any work
+        if directional is not None and len(lightmap_pages(directional)) != scene.atlases:
+            raise ValueError(f"save_baked_glb: {len(lightmap_pages(directional))} directional maps for "
+                             f"{scene.atlases} atlases")
     elif directional is not None:
         raise ValueError("save_baked_glb: a directional lightmap needs the lightmap")
     folder = Path(path).parent if folder is None else Path(folder)

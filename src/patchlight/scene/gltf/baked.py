@@ -38,9 +38,10 @@ def lightmap_description(pages: list[EncodedLightmap], meta: dict) -> dict:
             "intensity": _lightmap_intensity(pages[0])}
 
 
-def lightmap_pages(lightmap: EncodedLightmap | list[EncodedLightmap]) -> list[EncodedLightmap]:
-    """save_baked_glb's lightmap as a list of atlases."""
-    return [lightmap] if isinstance(lightmap, EncodedLightmap) else list(lightmap)
+def lightmap_pages(lightmap):
+    """save_baked_glb's lightmap (or directional lightmap): one, or a list of one per atlas,
+    as a list of atlases."""
+    return list(lightmap) if isinstance(lightmap, list) else [lightmap]
 
 
 def atlas_of_materials(extras, material_extensions: list) -> tuple[int, dict[int, int]]:
@@ -87,9 +88,11 @@ def is_lightmap_occlusion(occlusion, textures: list) -> bool:
             and textures[index].get("name") == LIGHTMAP_NAME)
 
 
-def directional_name(layer: str) -> str:
-    """The name of a directional layer's texture and image ("" : the dominant direction)."""
-    return f"{DIRECTIONAL_NAME}_{layer}" if layer else DIRECTIONAL_NAME
+def directional_name(layer: str, atlas: int | None = None) -> str:
+    """The name of a directional layer's texture and image ("" : the dominant direction), of
+    atlas `atlas` in a bake of several."""
+    name = f"{DIRECTIONAL_NAME}_{layer}" if layer else DIRECTIONAL_NAME
+    return name if atlas is None else f"{name}_atlas{atlas}"
 
 
 def is_bake_map(item) -> bool:

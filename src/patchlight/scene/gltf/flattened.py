@@ -35,8 +35,10 @@ def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | list[E
     writer.doc.extras = {"patchlight": jsonable(extras)} if extras else {}
     if lightmap is not None:
         writer.lightmap(lightmap_pages(lightmap), meta, atlas_of)
-        if directional is not None and scene.atlases == 1:
-            writer.directional(directional, writer.doc.textures[-1].sampler)
+        sampler = writer.doc.textures[-1].sampler
+        for k, maps in enumerate(lightmap_pages(directional) if directional is not None else []):
+            writer.directional(maps, sampler, [m for m in range(len(writer.doc.materials)) if atlas_of.get(m, 0) == k],
+                               None if scene.atlases == 1 else k)
     return writer.finish()
 
 
@@ -197,17 +199,19 @@ class _GlbWriter:
         description.update({"texture": textures[0]} if len(pages) == 1 else {"textures": textures})
         self.doc.extras = {"patchlight": {**self.doc.extras.get("patchlight", {}), "lightmap": description}}
 
-    def directional(self, directional: EncodedDirectional, sampler: int) -> None:
-        """Each directional layer as a texture naming its EXR through PATCHLIGHT_texture_exr,
-        PATCHLIGHT_lightmap_directional on every material."""
+    def directional(self, directional: EncodedDirectional, sampler: int, materials: list[int],
+                    atlas: int | None = None) -> None:
+        """Each directional layer (of atlas `atlas` in a bake of several) as a texture naming its
+        EXR through PATCHLIGHT_texture_exr, PATCHLIGHT_lightmap_directional on `materials`."""
         textures = []
         for layer, exr in zip(directional.layers, directional.exr):
-            name = directional_name(layer)
+            name = directional_name(layer, atlas)
             self.doc.images.append(gl.Image(bufferView=self.view(exr), mimeType=EXR_MIME, name=name))
             self.doc.textures.append(gl.Texture(sampler=sampler, name=name,
                                                 extensions={EXR: {"source": len(self.doc.images) - 1}}))
             textures.append(len(self.doc.textures) - 1)
-        for material in self.doc.materials:
+        for number in materials:
+            material = self.doc.materials[number]
             material.extensions = {**(material.extensions or {}), DIRECTIONAL: directional_reference(textures, directional)}
         for name in (DIRECTIONAL, EXR):
             self.use_extension(name)

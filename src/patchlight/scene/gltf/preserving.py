@@ -155,7 +155,8 @@ class SourceWriter(GlbEditor):
         self.drop_unused_draco()
         self.root_extras(extras or {})
         if lightmap is not None:
-            self.lightmap(lightmap_pages(lightmap), meta, primitives, directional)
+            self.lightmap(lightmap_pages(lightmap), meta, primitives,
+                          None if directional is None else lightmap_pages(directional))
         if unlit:
             self.mark_unlit()
         self.mark_lights()
@@ -341,13 +342,13 @@ class SourceWriter(GlbEditor):
                     del self.raw[key]
 
     def lightmap(self, pages: list[EncodedLightmap], meta: dict, primitives: dict[int, list[dict]],
-                 directional: EncodedDirectional | None = None) -> None:
+                 directional: list[EncodedDirectional] | None = None) -> None:
         """The lightmap: one texture per atlas (`lightmap_texture`, `new_lightmap_texture`);
         MOZ_lightmap on the materials of the triangle primitives written (a material whose
         primitives lie on several atlases gets a copy per further atlas, "<name> (atlas k)"),
         and its atlas's texture as their occlusionTexture at strength 0 where they have none of
-        their own; root extras.patchlight.lightmap; the directional lightmap (`directional`,
-        of a one-atlas bake)."""
+        their own; root extras.patchlight.lightmap; the directional lightmap (`directional`, one
+        per atlas)."""
         raw = self.raw
         description = lightmap_description(pages, meta)
         extras = raw.get("extras") if isinstance(raw.get("extras"), dict) else {}
@@ -381,8 +382,13 @@ class SourceWriter(GlbEditor):
         used = raw.setdefault("extensionsUsed", [])
         used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]
         raw["extras"] = {**extras, "patchlight": {**patchlight, "lightmap": description}}
-        self.directional(directional if len(pages) == 1 else None, textures[atlas_textures[0]].get("sampler"),
-                         [materials[m] for m in sorted(first)])
+        sampler = textures[atlas_textures[0]].get("sampler")
+        drawn = [(materials[copies.get((number, atlas), number)], atlas) for number, atlas in [*first.items(), *copies]]
+        if directional is None:
+            self.directional(None, sampler, [material for material, _ in drawn])
+        for k, maps in enumerate(directional or []):
+            self.directional(maps, sampler, [material for material, atlas in drawn if atlas == k],
+                             None if len(pages) == 1 else k)
 
     def new_lightmap_texture(self, lightmap: EncodedLightmap) -> int:
         """A new texture "patchlight_lightmap" of one atlas: PNG source, .hdr through MOZ_texture_rgbe."""
@@ -415,9 +421,10 @@ class SourceWriter(GlbEditor):
         textures[old]["extensions"] = {**(textures[old].get("extensions") or {}), MOZ_RGBE: {"source": source}}
         return old
 
-    def directional(self, directional: EncodedDirectional | None, sampler: int | None, lit: list[dict]) -> None:
-        """Each directional layer as the texture named directional_name(layer) (an earlier bake's
-        reused) naming its EXR image through PATCHLIGHT_texture_exr, and
+    def directional(self, directional: EncodedDirectional | None, sampler: int | None, lit: list[dict],
+                    atlas: int | None = None) -> None:
+        """Each directional layer (of atlas `atlas` in a bake of several) as the texture named
+        directional_name(layer, atlas) (an earlier bake's reused) naming its EXR image through PATCHLIGHT_texture_exr, and
         PATCHLIGHT_lightmap_directional on the lit materials; without one, an earlier bake's
         reference goes."""
         raw = self.raw
@@ -430,7 +437,7 @@ class SourceWriter(GlbEditor):
         named = {t.get("name"): k for k, t in enumerate(textures) if isinstance(t, dict)}
         indices = []
         for layer, exr in zip(directional.layers, directional.exr):
-            name = directional_name(layer)
+            name = directional_name(layer, atlas)
             image = {"name": name, "bufferView": self.add_view(exr), "mimeType": EXR_MIME}
             k = named.get(name)
             source = None if k is None else ((textures[k].get("extensions") or {}).get(EXR) or {}).get("source")
