@@ -11,6 +11,7 @@ import numpy as np
 from ..config import FALLOFFS, PLAIN_UNITS, BakeSettings, accepted
 from ..errors import PatchlightError
 from ..shading.hemisphere_radiosity import OFFSET_MODES
+from ..shading.models import ShadingSettings
 from .parser import finite_number
 from .values import parse_light_spec, parse_rgb
 
@@ -63,17 +64,17 @@ def add_shading_options(p: argparse.ArgumentParser) -> None:
                      help="replace the scene's sky: an equirectangular .exr or .hdr")
     p.add_argument("--ambient", type=parse_rgb, metavar="R,G,B",
                    help="ambient incident light (default: from the sky, else 0.05 grey)")
-    p.add_argument("--reflectivity", type=finite_number, metavar="K", help="envmap reflectivity of every material (0..1)")
+    p.add_argument("--reflectivity", type=finite_number, metavar="K", help=about("reflectivity", ShadingSettings))
     p.add_argument("--specular", dest="lightmap_specular", action="store_true",
-                   help="lightmap model: add the lights' Blinn-Phong highlight")
+                   help=about("lightmap_specular", ShadingSettings))
     p.add_argument("--normal-map", nargs="?", const=True, default=False, type=Path, metavar="PNG",
-                   help="tangent-space normal maps, colour alpha as gloss: the materials' own, or this image "
-                        "(e.g. from `patchlight normalmap`) for every material")
-    p.add_argument("--per-vertex", action="store_true", help="light at the vertices and interpolate")
+                   help=f"{declared_field('normal_map', ShadingSettings).metadata['meaning']}: the materials' own, "
+                        "or this tangent-space image (e.g. from `patchlight normalmap`) for every material")
+    p.add_argument("--per-vertex", action="store_true", help=about("per_vertex", ShadingSettings))
     p.add_argument("--volume", type=Path, metavar="DIR",
                    help="ambient-cube model: the light volume (default: the bake directory's, if it holds one)")
     p.add_argument("--naive-weights", dest="ambient_cube_naive", action="store_true",
-                   help="ambient-cube model: weight the axes by saturate(N)")
+                   help=about("ambient_cube_naive", ShadingSettings))
     p.add_argument("--offset-mode", choices=OFFSET_MODES, metavar="normal|side|none",
                    help="hemisphere-radiosity model: where a ground map directory's map is sampled, offset along "
                         "the normal, its left-right part only, or not at all (default: the map's groundmap.json)")
