@@ -215,8 +215,12 @@ def test_a_second_bake_into_the_same_folder_is_refused_at_once(tmp_path):
         while not held(out):
             assert first.poll() is None and time.monotonic() < deadline, first.stderr.read()
             time.sleep(0.01)
-        second = subprocess.run([PATCHLIGHT, "bake", "cornell", "--resolution", "64", "--quiet", "-o", str(out)],
-                                capture_output=True, text=True, timeout=60)
+        first.send_signal(signal.SIGSTOP)  # holds the lock while the second starts, however fast its bake
+        try:
+            second = subprocess.run([PATCHLIGHT, "bake", "cornell", "--resolution", "64", "--quiet", "-o", str(out)],
+                                    capture_output=True, text=True, timeout=60)
+        finally:
+            first.send_signal(signal.SIGCONT)
         assert second.returncode == 2 and "another patchlight process is writing there" in second.stderr
         assert len(second.stderr.strip().splitlines()) == 1
         assert first.wait(timeout=300) == 0
