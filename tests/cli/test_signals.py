@@ -12,6 +12,7 @@ import pytest
 from patchlight.cli.main import main
 
 PATCHLIGHT = str(Path(sys.executable).with_name("patchlight"))
+LONG_BAKE = ["bake", "room", "--resolution", "256", "-o"]  # seconds of work, so a signal 0.4 s in lands mid-bake
 
 
 def caught_signals(pid: int) -> int:
@@ -49,15 +50,13 @@ def room_bake(tmp_path_factory):
 
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1, 0.2, 0.4])
 def test_ctrl_c_while_starting_is_one_line_and_130(tmp_path, delay):
-    status, err = signalled(["bake", "room", "--resolution", "64", "-o", str(tmp_path / "out")], signal.SIGINT,
-                            delay)
+    status, err = signalled(LONG_BAKE + [str(tmp_path / "out")], signal.SIGINT, delay)
     assert status == 130 and err.strip() == "patchlight: interrupted; nothing partial was written", err
     assert not (tmp_path / "out").exists()
 
 
 def test_sigterm_is_handled_like_ctrl_c(tmp_path):
-    status, err = signalled(["bake", "room", "--resolution", "64", "-o", str(tmp_path / "out")], signal.SIGTERM,
-                            0.3)
+    status, err = signalled(LONG_BAKE + [str(tmp_path / "out")], signal.SIGTERM, 0.3)
     assert status == 143 and err.strip() == "patchlight: terminated; nothing partial was written", err
 
 
