@@ -10,7 +10,7 @@ A directional bake (sh and dominant) of a room whose materials carry a normal ma
 bumps: the plugin patches three.js's material so that its picture matches `patchlight render
 --model lightmap-directional --normal-map` within 2/255 on every smooth pixel, and the bumps
 show (the picture differs from the plain lightmap's where the normal map tilts). With the
-highlight on, a glossy bumpy Cornell box matches `render ... --specular`, and misses it off."""
+highlight on, a glossy bumpy room matches `render ... --specular`, and misses it off."""
 from __future__ import annotations
 
 import json
@@ -164,19 +164,20 @@ def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_rende
 
 
 def test_the_plugins_highlight_matches_the_cpu_directional_specular(browser, tmp_path_factory, tmp_path):
-    """The Cornell box (no punctual lights: `render --specular` adds the dominant direction's
-    highlight alone) with bumps and a gloss map, baked dominant: with the page's lightmap
-    specular on, the plugin's picture matches `render --model lightmap-directional --normal-map
-    --specular` within 2/255 on smooth pixels; off, the highlight is missing."""
+    """The room with bumps and a gloss map, baked dominant: with the page's lightmap specular
+    on, the plugin's picture matches `render --model lightmap-directional --normal-map
+    --specular` within 2/255 on smooth pixels; off, the highlight is missing. The baked sun,
+    off in three.js, adds no highlight of its own in either (before, the CPU model drew it
+    beside the dominant direction's: 50/255 mean on smooth pixels)."""
     if three_missing():
         pytest.skip(three_missing())
     folder = tmp_path_factory.mktemp("glossy")
     out = folder / "dominant"
-    assert main(["bake", bumpy_scene(folder, "cornell", gloss=True), "-o", str(out), "--resolution", "128",
+    assert main(["bake", bumpy_scene(folder, "room", gloss=True), "-o", str(out), "--resolution", "128",
                  "--rays", "64", "--directional", "dominant", "--quiet"]) == 0
     cpu, (shiny, dull), _ = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map",
                                           "--specular", specular=(True, False))
-    assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.15) <= 2
+    assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.1) <= 2  # highlights: fewer smooth
     covered = dull[..., 3] > 0
     missing = np.abs(dull[..., :3] - cpu).max(axis=-1)[covered]
     print(f"without the highlight: {np.mean(missing > 4):.0%} of pixels off by more than 4/255, "

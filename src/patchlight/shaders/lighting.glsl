@@ -13,7 +13,8 @@
 //   hemisphere   diffuse = mix(ground, sky, 0.5 + 0.5 N.y) alone: no punctual lights (the classic
 //                hemisphere light)
 //   lightmap     specular = sum I (N.H)^n only with LIGHTMAP_SPECULAR (the lightmap has the diffuse)
-//   lightmap-directional  as lightmap; the fragment adds the baked light's own highlight
+//   lightmap-directional  no lights: they are in its maps; with LIGHTMAP_SPECULAR the fragment
+//                adds the baked light's highlight from its dominant direction
 //   envmap       diffuse as lambert; reflected = reflect(-V, N); fresnel = k (1 - N.V)
 //   ambient-cube diffuse = the light volume seen along N, specular = k x the volume along
 //                reflect(-V, N) (ambient_cube.glsl); no lights: the volume holds them
@@ -38,7 +39,7 @@ void add_light(inout Lighting lit, Incident light, vec3 N, vec3 V, float gloss, 
 #elif MODEL == MODEL_BLINN_PHONG
     lit.diffuse += n_dot_l * light.I;
     lit.specular += min(blinn_phong_specular(N, light.L, V, shininess), gloss) * light.I;
-#elif MODEL == MODEL_LIGHTMAP || MODEL == MODEL_LIGHTMAP_DIRECTIONAL
+#elif MODEL == MODEL_LIGHTMAP
 #ifdef LIGHTMAP_SPECULAR
     lit.specular += min(blinn_phong_specular(N, light.L, V, shininess), gloss) * light.I;
 #endif
@@ -57,7 +58,7 @@ Lighting light_surface(vec3 P, vec3 N, vec3 V, float gloss, float shininess, flo
 #elif MODEL != MODEL_UNLIT && MODEL != MODEL_LIGHTMAP && MODEL != MODEL_LIGHTMAP_DIRECTIONAL
     lit.diffuse = ambient_color;
 #endif
-#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE && MODEL != MODEL_HEMISPHERE
+#if MODEL != MODEL_UNLIT && MODEL != MODEL_AMBIENT && MODEL != MODEL_AMBIENT_CUBE && MODEL != MODEL_HEMISPHERE && MODEL != MODEL_LIGHTMAP_DIRECTIONAL
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= light_count) break;
         add_light(lit, incident_light(i, P), N, V, gloss, shininess);

@@ -20,8 +20,8 @@ dominant: I x (0.5 + 0.5 n.d) /
 theta, L1 gives sh(n) = Es (1/4 + cos(theta) / 2) / pi where the exact light is Es
 max(cos(theta), 0) / pi: L1 cannot do better than this projection, whose error is at most
 Es / (4 pi) (at cos 1 and cos 0). Specular (with LIGHTMAP_SPECULAR): the dominant direction
-as a light of strength share x I, Blinn-Phong, limited by the gloss.
-"""
+as a light of strength share x I, Blinn-Phong, limited by the gloss; the punctual lights add
+nothing (their light is in the maps, so their highlight is this one)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

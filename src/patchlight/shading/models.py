@@ -29,7 +29,9 @@ MODELS = ("unlit", "ambient", "lambert", "phong", "blinn-phong", "self-shadow", 
           "hemisphere-radiosity", "ambient-cube", "lightmap-directional")
 LIT_MODELS = MODELS[1:]
 LIGHTMAP_MODELS = ("lightmap", "lightmap-directional")  # the models that read the lightmap (TEXCOORD_1)
-UNLIT_BY_LIGHTS = ("unlit", "ambient", "hemisphere", "ambient-cube")  # models the punctual lights do not reach
+# Models the punctual lights do not reach (lightmap-directional: they are in its maps, their
+# highlight is the dominant direction's).
+UNLIT_BY_LIGHTS = ("unlit", "ambient", "hemisphere", "ambient-cube", "lightmap-directional")
 
 
 def _grey():
@@ -51,7 +53,7 @@ class ShadingSettings:
                                  length=3, factory=_grey)
     per_vertex: bool = setting(False, "bool", "evaluate the light sum at vertices and interpolate")
     normal_map: bool = setting(False, "bool", "perturb normals by the materials' normal maps, colour alpha as gloss")
-    lightmap_specular: bool = setting(False, "bool", "add the lights' Blinn-Phong highlight to the lightmap models")
+    lightmap_specular: bool = setting(False, "bool", "add a highlight to the lightmap models: the lights' Blinn-Phong (lightmap), the dominant direction's (lightmap-directional)")
     exposure: float = setting(1.0, "1 / radiance", "k of the display curve 1 - exp(-k x) for PNGs and the viewer",
                               lo=0, lo_open=True)
     reflectivity: float | None = setting(None, "ratio", "envmap strength of every material", lo=0.0, hi=1.0,
@@ -170,7 +172,7 @@ def add_light(model: str, lit: Lighting, L: np.ndarray, I: np.ndarray, N: np.nda
         specular = phong_specular if model == "phong" else blinn_phong_specular
         lit.diffuse += n_dot_l * I
         lit.specular += np.minimum(specular(N, L, V, shininess), gloss)[:, None] * I
-    elif model in LIGHTMAP_MODELS:
+    elif model == "lightmap":
         if lightmap_specular:
             lit.specular += np.minimum(blinn_phong_specular(N, L, V, shininess), gloss)[:, None] * I
     else:
