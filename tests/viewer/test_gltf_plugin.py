@@ -150,11 +150,16 @@ def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_rende
     out = folder / mode
     assert main(["bake", bumpy_scene(folder), "-o", str(out), "--resolution", "128", "--rays", "64",
                  "--directional", mode, "--quiet"]) == 0
-    cpu, gpu, materials = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map")
+    cpu, (gpu, shiny), materials = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional",
+                                                 "--normal-map", specular=(False, True))
     assert materials and all(m["lightMap"] and m["normalMap"] for m in materials.values()), materials
     assert smooth_difference(cpu, gpu, f"plugin vs CPU, directional {mode}", least=0.15) <= 2  # bumps: fewer smooth
-    # the bumps show: the plain lightmap (no direction, no normal map) differs where the map tilts
     camera = Renderer(open_input(str(out)).target()[0]).default_camera().to_json()
+    highlight = cpu_render(out, camera, tmp_path / "specular.png", "--model", "lightmap-directional", "--normal-map",
+                           "--specular")  # the highlight too, for sh as for dominant
+    assert np.abs(highlight - cpu).max() > 20
+    assert smooth_difference(highlight, shiny, f"plugin vs CPU, directional {mode} with specular", least=0.08) <= 2
+    # the bumps show: the plain lightmap (no direction, no normal map) differs where the map tilts
     plain = cpu_render(out, camera, tmp_path / "plain.png", "--model", "lightmap")
     covered = gpu[..., 3] > 0
     bumps = np.abs(gpu[..., :3] - plain).max(axis=-1)[covered]
