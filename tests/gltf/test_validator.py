@@ -170,7 +170,8 @@ def test_directional_bakes_reference_their_maps_from_every_lit_material(written)
 def test_a_re_bake_leaves_no_earlier_maps_behind(written):
     """Re-baking a directional bake (sh) with dominant, without --directional, or vertexbake:
     the maps nothing uses any more are gone, textures and images (their bytes with them), and
-    the extensions only they used; the validator reports none of the bake's maps unused."""
+    the extensions and samplers only they used; the validator reports none of the bake's maps
+    unused."""
     cases = {"bake of a directional bake, dominant": ({"patchlight_directional"}, {"PATCHLIGHT_texture_exr"}),
              "bake of a directional bake, none": (set(), set()),
              "vertexbake of a directional bake": (set(), set()), "vertexbake of a bake": (set(), set())}
@@ -191,5 +192,5 @@ def test_a_re_bake_leaves_no_earlier_maps_behind(written):
         known |= {f"/images/{e['source']}" for t in doc.get("textures", []) for key, e in t.get("extensions", {}).items()
                   if key in ("PATCHLIGHT_texture_exr", "MOZ_texture_rgbe")}
         unused = {m["pointer"] for m in report["messages"] if m["code"] == "UNUSED_OBJECT"
-                  and m["pointer"].startswith(("/textures/", "/images/"))}
+                  and m["pointer"].startswith(("/textures/", "/images/", "/samplers/"))}
         assert report["errors"] == 0 and unused <= known, (name, unused - known)

@@ -98,12 +98,20 @@ class GlbEditor:
 
     def drop_unreferenced(self, owned) -> None:
         """Drop the textures, then the images, for which owned(JSON) is true and that nothing
-        refers to any more (an earlier bake's maps), renumbering the references to the rest.
-        Skipped, as `compact`, when the file uses an extension this writer does not know, or
-        refers to a texture or image that does not exist."""
-        if self.knows_every_reference():
-            self._drop(self.raw["textures"], owned, _distinct(self.texture_references()))
-            self._drop(self.raw["images"], owned, _distinct(self.image_references()))
+        refers to any more (an earlier bake's maps), and the samplers only those textures used,
+        renumbering the references to the rest. Skipped, as `compact`, when the file uses an
+        extension this writer does not know, or refers to an object that does not exist."""
+        if not self.knows_every_reference():
+            return
+        textures, samplers = self.raw["textures"], self.raw["samplers"]
+        before = list(textures)
+        self._drop(textures, owned, _distinct(self.texture_references()))
+        kept = {id(t) for t in textures}
+        freed = {id(samplers[t["sampler"]]) for t in before if id(t) not in kept and isinstance(t, dict)
+                 and isinstance(t.get("sampler"), int) and 0 <= t["sampler"] < len(samplers)}
+        self._drop(samplers, lambda sampler: id(sampler) in freed,
+                   [(t, "sampler") for t in textures if isinstance(t, dict) and isinstance(t.get("sampler"), int)])
+        self._drop(self.raw["images"], owned, _distinct(self.image_references()))
 
     @staticmethod
     def _drop(items: list, owned, references: list[tuple[dict, str]]) -> None:
