@@ -224,7 +224,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     stale globs include STALE; returns the summary."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels
     from .imaging.io import write_bytes, write_exr, write_json, write_png
-    from .imaging.lightmap import encode_directional, encode_lightmap
+    from .imaging.lightmap import encode_directional, encode_lightmap, lightmap_scale
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
@@ -253,7 +253,7 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     write_bytes(staging / TEXELS, texels_of(result).to_bytes())
     for name, pixels in images.items():
         write_png(staging / name, pixels)
-    scale = encode_lightmap(result.lightmap).scale  # one scale for every atlas
+    scale = lightmap_scale(result.lightmap)  # one scale for every atlas
     encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
     directional = None if result.directional is None else [
         encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)

@@ -40,10 +40,15 @@ def encode_lightmap(lightmap: np.ndarray, scale: float | None = None) -> Encoded
     """The two images of an (H, W, 3) float incident-light lightmap (module docstring); scale:
     the one several atlases share (values above it clip in the PNG), else the lightmap's peak."""
     values = np.maximum(np.asarray(lightmap, np.float64), 0.0)
-    scale = max(float(values.max(initial=0.0)), MIN_SCALE) if scale is None else scale
+    scale = lightmap_scale(values) if scale is None else scale
     relative = values / scale
     png = encode_png(np.round(np.clip(relative, 0.0, 1.0) * 255.0).astype(np.uint8))
     return EncodedLightmap(encode_hdr(relative.astype(np.float32)), png, scale)
+
+
+def lightmap_scale(lightmap: np.ndarray) -> float:
+    """The scale of an (H, W, 3) lightmap's encoding: its peak (at least MIN_SCALE)."""
+    return max(float(np.max(lightmap, initial=0.0)), MIN_SCALE)
 
 
 @dataclass(frozen=True)
