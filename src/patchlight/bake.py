@@ -78,25 +78,22 @@ def _input_warnings(scene: Scene) -> list[str]:
 
 
 def _texels_per_atlas(patches: Patches, atlases: dict) -> list[int]:
-    """How many texels of each atlas a triangle covers."""
+    """How many texels of each atlas hold a patch (a surface covers them), atlas by atlas."""
     rows = patches.texel_y // atlases["height"]
     return np.bincount(rows, minlength=atlases["count"]).tolist()
 
 
-def directional_images(scene: Scene, patches: Patches, inside: np.ndarray, walled: np.ndarray, gatherer: Gatherer,
-                       solution: Solution, per_light: list[np.ndarray], rows: np.ndarray, mode: str,
-                       advance) -> np.ndarray:
+def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarray, walled: np.ndarray,
+                       gatherer: Gatherer, solution: Solution, per_light: list[np.ndarray], rows: np.ndarray,
+                       mode: str, advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
-    filled as the lightmap is."""
-    from .atlas.raster import TexelPoints
-
+    filled as the lightmap is; points: the direct stage's atlas.raster.TexelPoints."""
     sampled = gatherer.emitters is not None and gatherer.nee_samples > 0
     seen = solution.excident - patches.emission if sampled else solution.excident
     sums = gather_directions(gatherer, seen, rows, advance)
     add_direct(sums, patches, scene.baked_lights, per_light)
     if sampled:
         side = math.isqrt(gatherer.nee_samples)
-        points = TexelPoints(scene, patches)
         add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows),
                      gatherer.offset, gatherer.tracer, gatherer.seed)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
@@ -183,8 +180,8 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         if settings.directional:
             valid = np.flatnonzero(~inside)
             with progress.stage("directional", total=len(valid)) as advance:
-                images.append(directional_images(scene, patches, inside, walled, gatherer, solution, per_light,
-                                                 valid, settings.directional, advance))
+                images.append(directional_images(scene, patches, points, inside, walled, gatherer, solution,
+                                                 per_light, valid, settings.directional, advance))
         seams = None
         if settings.stitch:
             with progress.stage("seams"):
