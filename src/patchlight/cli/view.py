@@ -41,21 +41,19 @@ def register(sub) -> None:
                    help="a bake: show the view from lightmap texel X,Y (column, row) at start; "
                         "clicking a surface shows its texel's")
     add_shading_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, say=p.user_line)  # the page's note names flags, as this command's errors do
 
 
 def run(args) -> int:
     from ..inputs import open_input
     from ..viewer.app import make_server
-    from .parser import build_parser
 
     exposure = parse_exposure(args.exposure)
     envmap_from = parse_point(args.envmap_from, "--envmap-from") if args.envmap_from else None
     patch = parse_texel(args.patch) if args.patch else None
     target, settings = load_target_and_settings(args, args.model)
     compare = open_input(args.compare).target()[0] if args.compare else None
-    say = build_parser().commands["view"].user_line  # the page's note names flags, as errors here do
-    server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare, say)
+    server = make_server(target, settings, args.port, exposure, envmap_from, patch, compare, args.say)
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()
