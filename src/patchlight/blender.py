@@ -37,25 +37,26 @@ def import_bpy():
     return bpy
 
 
-def _document(glb: Path) -> dict:
-    """scene.glb's JSON."""
-    data = read_bytes(glb)
-    return json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
+def glb_json(glb: Path) -> dict:
+    """scene.glb's JSON (its GLB container read by scene.gltf's own reader)."""
+    from .scene.gltf.container import split_glb
+
+    return json.loads(split_glb(read_bytes(glb), glb)[0])
 
 
-def atlas_of_material_names(glb: Path) -> dict[str, int]:
-    """The lightmap atlas of each material of scene.glb, by name (as Blender's importer names them)."""
+def atlas_of_material_names(doc: dict) -> dict[str, int]:
+    """The lightmap atlas of each material of scene.glb (its JSON `doc`), by name (as Blender's
+    importer names them)."""
     from .scene.gltf.baked import atlas_of_materials
 
-    doc = _document(glb)
     materials = doc.get("materials") or []
     _, atlas_of = atlas_of_materials(doc.get("extras"), [m.get("extensions") for m in materials])
     return {materials[number].get("name") or f"material {number}": atlas for number, atlas in atlas_of.items()}
 
 
-def baked_light_nodes(glb: Path) -> set[str]:
-    """Names of the nodes of scene.glb that carry a light marked baked (extras.baked)."""
-    doc = _document(glb)
+def baked_light_nodes(doc: dict) -> set[str]:
+    """Names of the nodes of scene.glb (its JSON `doc`) that carry a light marked baked
+    (extras.baked)."""
     lights = ((doc.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights") or []
     names = set()
     for number, node in enumerate(doc.get("nodes") or []):
@@ -70,7 +71,7 @@ def write_blend(bake_dir, out) -> Path:
     `out` (.blend) atomically (module docstring); returns the path."""
     bake_dir, out = Path(bake_dir), Path(out)
     glb = bake_dir / bakedir.SCENE
-    count = bakedir.atlas_count(bake_dir) if (bake_dir / bakedir.MARKER).is_file() else 1
+    count = bakedir.atlas_count(bake_dir)  # 1 without bake.json
     exrs = [bake_dir / name for name in bakedir.atlas_files(bakedir.LIGHTMAP, count)]
     for needed in (glb, *exrs):
         if not needed.is_file():
@@ -88,7 +89,8 @@ def write_blend(bake_dir, out) -> Path:
         images.append(bpy.data.images.load(str(exr.resolve())))
         images[-1].name = LIGHTMAP_IMAGE if count == 1 else f"{LIGHTMAP_IMAGE}_{number}"
         images[-1].colorspace_settings.name = "Non-Color"  # linear data, as stored
-    atlas_of = atlas_of_material_names(glb)
+    doc = glb_json(glb)
+    atlas_of = atlas_of_material_names(doc)
     materials = {}
     for obj in bpy.context.scene.objects:
         if obj.type == "MESH" and len(obj.data.uv_layers) >= 2:
@@ -99,7 +101,7 @@ def write_blend(bake_dir, out) -> Path:
         raise PatchlightError(f"{glb}: no mesh has lightmap UVs (TEXCOORD_1)")
     for material, uv_map in materials.values():
         wire_lightmap(material, images[atlas_of.get(material.name, 0)], uv_map)
-    baked = baked_light_nodes(glb)
+    baked = baked_light_nodes(doc)
     for obj in [o for o in bpy.context.scene.objects if o.type == "LIGHT" and o.name in baked]:
         bpy.data.objects.remove(obj, do_unlink=True)
     cameras = [o for o in bpy.context.scene.objects if o.type == "CAMERA"]
