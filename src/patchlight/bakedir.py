@@ -175,9 +175,9 @@ def read_scene(path: str | Path):
     scene = load_gltf(Path(path) / SCENE)
     if scene.uv1 is None:
         raise PatchlightError(f"{Path(path) / SCENE}: no TEXCOORD_1 lightmap UVs")
-    if scene.atlases != atlas_count(path):
-        raise PatchlightError(f"{Path(path) / SCENE}: {scene.atlases} lightmap atlases, but {MARKER} says "
-                              f"{atlas_count(path)}")
+    count = atlas_count(path)
+    if scene.atlases != count:
+        raise PatchlightError(f"{Path(path) / SCENE}: {scene.atlases} lightmap atlases, but {MARKER} says {count}")
     return scene
 
 
