@@ -62,11 +62,12 @@ class _Parser(argparse.ArgumentParser):
         from ..errors import SettingError
 
         line = str(exc)
-        if isinstance(exc, SettingError) and self.flag(exc.field):
+        flag = self.flag(exc.field) if isinstance(exc, SettingError) else None
+        if flag:
             value = exc.value
             if isinstance(value, (tuple, list)):
                 value = ",".join(f"{v:g}" for v in value)
-            line = f"{self.flag(exc.field)} {value}: {exc.field.replace('_', ' ')} {exc.problem}"
+            line = f"{flag} {value}: {exc.field.replace('_', ' ')} {exc.problem}"
         return re.sub(r"`(\w+)`", lambda m: self.flag(m[1]) or m[0], line)
 
 
