@@ -187,8 +187,9 @@ def read_directional(path: str | Path):
     from .imaging.io import read_exr_layers
     from .shading.directional import DirectionalLightmap
 
+    count = atlas_count(path)
     for mode, name in DIRECTIONAL.items():
-        if (Path(path) / atlas_files(name, atlas_count(path))[0]).exists():
+        if (Path(path) / atlas_files(name, count)[0]).exists():
             maps = _read_atlases(path, name, lambda file: np.stack(read_exr_layers(file, _layers(mode))))
             return DirectionalLightmap(mode, maps)
     return None
