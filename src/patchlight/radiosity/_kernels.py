@@ -153,6 +153,39 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
 
 
 @nb.njit(cache=True, nogil=True)
+def live_rays(origins, dirs, tmax):
+    """The rays of emitter_rays that go somewhere (tmax > 0): their ids (L,) and origins,
+    directions (L, 3) and tmax (L,), packed in order."""
+    live = np.flatnonzero(tmax > 0)
+    o = np.empty((live.shape[0], 3), np.float32)
+    d = np.empty((live.shape[0], 3), np.float32)
+    t = np.empty(live.shape[0], np.float32)
+    for q in range(live.shape[0]):
+        i = live[q]
+        for a in range(3):
+            o[q, a] = origins[i, a]
+            d[q, a] = dirs[i, a]
+        t[q] = tmax[i]
+    return live, o, d, t
+
+
+@nb.njit(cache=True, nogil=True)
+def unblocked_sums(value, live, blocked, k):
+    """(R, 3) f32 per texel, the sum in order of its k rays' values (R * k, 3) but for the
+    rays live[blocked] (emitter_rays' shadow rays that met something)."""
+    lit = np.ones(value.shape[0], np.bool_)
+    for q in range(live.shape[0]):
+        if blocked[q]:
+            lit[live[q]] = False
+    out = np.zeros((value.shape[0] // k, 3), np.float32)
+    for i in range(value.shape[0]):
+        if lit[i]:
+            for c in range(3):
+                out[i // k, c] += value[i, c]
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_normal, two_sided, nee_samples):
     """(R * D,) f32: the share of its emission each gather ray that hits an emitting patch
     counts (1 - 0), 0 for the other rays: its MIS weight against `nee_samples` next-event

@@ -90,10 +90,9 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
         origins, dirs, tmax, value = _kernels.emitter_rays(
             points_of(rows), normal, lift, rows, e.cdf, e.triangles, e.corners, e.normals, e.two_sided, e.area,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
-        live = np.flatnonzero(tmax > 0)
-        blocked = tracer.occluded_chunk(origins[live], dirs[live], tmax[live])
-        value[live[blocked]] = 0.0
-        return value.reshape(len(rows), -1, 3).sum(axis=1)
+        live, origins, dirs, tmax = _kernels.live_rays(origins, dirs, tmax)
+        blocked = tracer.occluded_chunk(origins, dirs, tmax)
+        return _kernels.unblocked_sums(value, live, blocked, len(value) // len(rows))
 
     rows = np.arange(len(patches), dtype=np.int64)
     parts = tracer.map(chunk, [rows[s:s + TEXELS_PER_CHUNK] for s in range(0, len(rows), TEXELS_PER_CHUNK)])
