@@ -1,6 +1,6 @@
 """The bake against an independent path tracer: at points the bake gathered, the incident
 light it solved must match a Monte Carlo estimate of the same quantity (cosine-weighted mean
-radiance, DESIGN.md units) with emitters, sun and sky. The reference shares only the ray
+radiance, the README's units) with emitters, sun and sky. The reference shares only the ray
 caster and the sky model with the baker (its sun term is written out here), so it checks
 that every 1/pi of the gather, the passes and the direct light is in its place."""
 import numpy as np
@@ -32,7 +32,7 @@ def cosine_directions(normals, rng):
 
 
 def sun_incident(scene, tracer, points, normals):
-    """(N, 3) incident light from the scene's suns, written out here from DESIGN.md
+    """(N, 3) incident light from the scene's suns, written out here from its definition
     (I = Es max(0, n.l) V / pi, one hard shadow ray), not taken from the baker."""
     total = np.zeros((len(points), 3))
     for sun in scene.lights:
