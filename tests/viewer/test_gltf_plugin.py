@@ -95,6 +95,15 @@ def smooth_difference(cpu: np.ndarray, gpu: np.ndarray, what: str, least: float 
     return int(diff.max())
 
 
+def covered_difference(gpu: np.ndarray, cpu: np.ndarray, what: str) -> np.ndarray:
+    """Per pixel `gpu` covers, the largest |gpu - cpu| over the channels (/255), shape (covered,);
+    prints the share off by more than 4/255, the mean and the max."""
+    diff = np.abs(gpu[..., :3] - cpu).max(axis=-1)[gpu[..., 3] > 0]
+    print(f"{what}: {np.mean(diff > 4):.0%} of pixels off by more than 4/255, mean {diff.mean():.1f}/255, "
+          f"max {diff.max()}/255")
+    return diff
+
+
 def test_scene_glb_through_the_plugin_matches_the_cpu_lightmap_render(browser, tmp_path_factory, tmp_path):
     if three_missing():
         pytest.skip(three_missing())
@@ -161,10 +170,7 @@ def test_a_directional_bake_through_the_plugin_matches_the_cpu_directional_rende
     assert smooth_difference(highlight, shiny, f"plugin vs CPU, directional {mode} with specular", least=0.08) <= 2
     # the bumps show: the plain lightmap (no direction, no normal map) differs where the map tilts
     plain = cpu_render(out, camera, tmp_path / "plain.png", "--model", "lightmap")
-    covered = gpu[..., 3] > 0
-    bumps = np.abs(gpu[..., :3] - plain).max(axis=-1)[covered]
-    print(f"directional {mode} vs the plain lightmap: {np.mean(bumps > 4):.0%} of pixels differ by more than "
-          f"4/255, mean {bumps.mean():.1f}/255")
+    bumps = covered_difference(gpu, plain, f"directional {mode} vs the plain lightmap")
     assert np.mean(bumps > 4) > 0.1 and bumps.mean() > 2
 
 
@@ -183,10 +189,7 @@ def test_the_plugins_highlight_matches_the_cpu_directional_specular(browser, tmp
     cpu, (shiny, dull), _ = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map",
                                           "--specular", specular=(True, False))
     assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.1) <= 2  # highlights: fewer smooth
-    covered = dull[..., 3] > 0
-    missing = np.abs(dull[..., :3] - cpu).max(axis=-1)[covered]
-    print(f"without the highlight: {np.mean(missing > 4):.0%} of pixels off by more than 4/255, "
-          f"max {missing.max()}/255")
+    missing = covered_difference(dull, cpu, "without the highlight")
     assert np.mean(missing > 4) > 0.05 and missing.max() > 20
 
 
