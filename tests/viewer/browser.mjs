@@ -24,7 +24,9 @@
 //                                                 pixels clicked}, {shot: name}) logs the page's state;
 //                                                 `shot` writes OUT_DIR/<name>.rgba (the canvas) and
 //                                                 <name>.png (a screenshot of the page)
-// Each writes OUT_DIR/log.json: {ready, errors: [...console errors and page errors...], ...}.
+//       (a URL may carry the page's own query, e.g. ?max-texture=N)
+// Each writes OUT_DIR/log.json: {ready, stats (the status line), errors: [...console errors and
+// page errors...], ...}; cases adds atlas_grid, the page's layout of the lightmap's atlases.
 // One browser launch per run, a fresh profile each time. $PATCHLIGHT_CHROMIUM overrides /usr/bin/chromium.
 import fs from 'node:fs';
 import os from 'node:os';
@@ -54,6 +56,7 @@ async function withPage(url, outDir, body) {
     await page.goto(url);
     await page.waitForFunction(() => document.body.dataset.ready, null, { timeout: 60000 });
     log.ready = await page.evaluate(() => document.body.dataset.ready);
+    log.stats = await page.textContent('#stats');  // the page's one line of what went wrong, if it did
     if (log.ready === 'true') await body(page, log);
   } finally {
     fs.writeFileSync(path.join(outDir, 'log.json'), JSON.stringify(log, null, 1));
@@ -64,8 +67,12 @@ async function withPage(url, outDir, body) {
 
 async function cases(url, casesFile, outDir) {
   const specs = JSON.parse(fs.readFileSync(casesFile, 'utf8'));
-  await withPage(`${url}?test=1`, outDir, async (page, log) => {
+  await withPage(`${url}${url.includes('?') ? '&' : '?'}test=1`, outDir, async (page, log) => {
     log.seconds = {};
+    log.atlas_grid = await page.evaluate(() => {  // how the page laid the lightmap's atlases out
+      const { atlases, cols, rows, maxSize } = window.patchlight.viewer.atlasGrid;
+      return { atlases, cols, rows, max_size: maxSize };
+    });
     log.volume = { baked: await page.evaluate(() => window.patchlight.volume.baked), objects: {} };
     log.engine = await page.evaluate(() => {  // scene.glb's three.js materials: which maps they sample
       const materials = {};

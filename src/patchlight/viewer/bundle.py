@@ -11,6 +11,8 @@ int32); the manifest names them:
     materials: [{name, base_color, emissive, shininess, reflectivity, double_sided,
                  color_map, emissive_map, normal_map}]   (map values: array names or null)
     lights, settings, camera, bounds, lightmap, max_lights,
+    atlases (how many lightmap atlases the lightmap and texel arrays hold, stacked along v as
+                the scene's uv1 addresses them: scene.model.stacked_uv1),
     exposure_rule (the automatic exposure's percentile, target and luminance weights:
                 patchlight.imaging.exposure),
     texels (a bake's texels.npz: passes, status, chart, rho, emission, excident, the status
@@ -41,7 +43,7 @@ from ..render.camera import Camera
 from ..render.target import Target
 from ..shading.lights import MAX_LIGHTS
 from ..shading.models import ShadingSettings
-from ..bakedir import MARKER, STATUS_NAMES, Texels, atlas_count, read_summary
+from ..bakedir import MARKER, STATUS_NAMES, Texels, read_summary
 from ..volumes.viewer import volume_bundle
 
 
@@ -114,6 +116,7 @@ def scene_bundle(target: Target, settings: ShadingSettings, camera: Camera, env:
         "camera": camera.to_json(),
         "bounds": [lo, hi],
         "lightmap": pack.add_texture("lightmap", target.lightmap),
+        "atlases": target.scene.atlases,
         "env": pack.add("env", env),
         "env_note": env_note,
         "sky": None if sky is None else "env" if sky is env else pack.add("sky", sky),
@@ -139,15 +142,15 @@ def _directional_bundle(pack: _Packer, directional) -> dict | None:
 
 def texels_bundle(pack: _Packer, texels: Texels | None, bake_dir: Path | None = None) -> dict | None:
     """The manifest's `texels`: array names of a bake's texels.npz (passes as float16 RGBA
-    textures), with the names and debug colours of the texel status, and from bake.json the
-    atlases (count; the arrays hold them stacked) and each object's texels per metre."""
+    textures; the atlases stacked), with the names and debug colours of the texel status, and
+    from bake.json each object's texels per metre."""
     if texels is None:
         return None
     height, width = texels.status.shape
     known = bake_dir is not None and (Path(bake_dir) / MARKER).is_file()
     objects = ((read_summary(bake_dir).get("uv") or {}).get("objects") or []) if known else []
     return {
-        "width": width, "height": height, "atlases": atlas_count(bake_dir) if known else 1,
+        "width": width, "height": height,
         "objects": [{"name": str(o.get("name")), "texels_per_unit": float(o.get("texels_per_unit"))}
                     for o in objects if isinstance(o, dict) and isinstance(o.get("texels_per_unit"), (int, float))],
         "passes": [pack.add_texture(f"pass_{k}", image, np.float16) for k, image in enumerate(texels.passes, start=1)],

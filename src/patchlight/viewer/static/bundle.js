@@ -25,13 +25,15 @@ export class Bundle {
     return new Type(this.data, spec.offset, count);
   }
 
-  geometry() {
+  // lightmapUvs: (V * 2) float32 lightmap UVs as the page's lightmap textures lay the atlases out.
+  geometry(lightmapUvs) {
     const g = new THREE.BufferGeometry();
     const attributes = [['position', 'positions', 3], ['normal', 'normals', 3], ['uv', 'uv0', 2],
-      ['lightmap_uv', 'uv1', 2], ['surface_tangent', 'tangents', 4], ['vertex_color', 'colors', 4]];
+      ['surface_tangent', 'tangents', 4], ['vertex_color', 'colors', 4]];
     for (const [attribute, name, size] of attributes) {
       g.setAttribute(attribute, new THREE.BufferAttribute(this.array(name), size));
     }
+    g.setAttribute('lightmap_uv', new THREE.BufferAttribute(lightmapUvs, 2));
     g.setIndex(new THREE.BufferAttribute(this.array('indices'), 1));
     for (const group of this.manifest.groups) g.addGroup(group.start, group.count, group.material);
     g.computeBoundingSphere();

@@ -3,7 +3,6 @@
 // the surfaces (texel checker, chart outlines), the value probe of one texel, the 2-D atlas
 // view and the legend of every debug colour.
 import * as THREE from 'three';
-import { dataTexture } from './bundle.js';
 
 export const OVERLAYS = { light: 'incident light I', adaptive: 'gathered / interpolated / inside', charts: 'UV charts' };
 const OUTLINE = [255, 255, 255, 255];  // chart borders
@@ -50,7 +49,7 @@ export class Inspector {
   // The lightmap texture of pass k (1..passes); the last is lightmap.exr itself.
   lightTexture(k) {
     if (!this.t || k >= this.passes) return this.viewer.lightmapTexture;
-    return this.cached(`pass ${k}`, () => this.viewer.bundle.texture(this.t.passes[k - 1], THREE.ClampToEdgeWrapping));
+    return this.cached(`pass ${k}`, () => this.viewer.lightmapSpace(this.t.passes[k - 1]));
   }
 
   // (R, G, B) incident light of texel (x, y) after pass k.
@@ -99,7 +98,7 @@ export class Inspector {
       const c = colourOf(i);
       pixels.set([c[0], c[1], c[2], c[3] ?? 255], i * 4);
     }
-    const texture = dataTexture(pixels, this.width, this.height, THREE.ClampToEdgeWrapping);
+    const texture = this.viewer.atlasGrid.texture(pixels);
     texture.minFilter = texture.magFilter = THREE.NearestFilter;
     texture.userData.pixels = pixels;
     return texture;
@@ -155,8 +154,8 @@ export class Inspector {
     if (overlay === 'light') rows.push(['linear-gradient(90deg,#000,#fff)', 'incident light I, exposed']);
     if (outlines) rows.push([rgb(OUTLINE), 'chart border texels']);
     if (checker) {
-      const atlases = this.t.atlases > 1 ? `${this.t.atlases} atlases of ${this.width} x ${this.height / this.t.atlases}`
-        : `${this.width} x ${this.height}`;
+      const { atlases: n, width, height } = this.viewer.atlasGrid;
+      const atlases = n > 1 ? `${n} atlases of ${width} x ${height}` : `${width} x ${height}`;
       rows.push([`rgba(0,0,0,${CHECKER[3] / 255})`, `every other texel (${atlases})`]);
       // each object's squares are its own texels: its density, as bake.json measured it
       for (const o of this.t.objects.slice(0, MAX_OBJECTS)) rows.push(['transparent', `${o.name}: ${o.texels_per_unit.toFixed(1)} texels/m`]);

@@ -4,6 +4,7 @@
 // view from a patch and an A/B split of two models.
 // window.patchlight exposes the same renderer to tests (renderCase reads back the pixels).
 import * as THREE from 'three';
+import { AtlasGrid } from './atlas_grid.js';
 import { constantTexture, loadBundle } from './bundle.js';
 import { CameraRig } from './camera.js';
 import { Inspector, OVERLAYS } from './inspect.js';
@@ -41,15 +42,17 @@ class Viewer {
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(1);
     this.renderer.setClearColor(0x000000, 0);
+    this.atlasGrid = AtlasGrid.of(this.manifest, this.renderer.capabilities.maxTextureSize);
+    if (!this.atlasGrid.fits) throw new Error(this.atlasGrid.refusal);
     this.uniforms = this.sharedUniforms();
     this.lightmapTexture = this.uniforms.lightmap.value;
     const compare = this.manifest.compare;  // a second bake's lightmap, for the A/B split
-    this.compareTexture = compare && bundle.texture(compare.lightmap, THREE.ClampToEdgeWrapping);
+    this.compareTexture = compare && this.lightmapSpace(compare.lightmap);
     this.inspector = new Inspector(this);
     this.state.pass = this.inspector.passes;  // the final solution
     this.materials = this.manifest.materials.map((m) => this.material(m, vertexShader, fragmentShader));
     this.scene = new THREE.Scene();
-    this.mesh = new THREE.Mesh(bundle.geometry(), this.materials);
+    this.mesh = new THREE.Mesh(bundle.geometry(this.atlasGrid.uvs(bundle.array('uv1'))), this.materials);
     this.scene.add(this.mesh);
     this.engineScene = this.manifest.scene_glb ? await loadEngineScene() : null;
     if (this.engineScene) this.scene.add(this.engineScene);
@@ -74,8 +77,7 @@ class Viewer {
     const n = this.maxLights;
     const s = this.manifest.settings;
     const vec3s = () => Array.from({ length: n }, () => new THREE.Vector3());
-    const lightmap = this.manifest.lightmap
-      ? this.bundle.texture(this.manifest.lightmap, THREE.ClampToEdgeWrapping) : constantTexture([0, 0, 0, 1]);
+    const lightmap = this.manifest.lightmap ? this.lightmapSpace(this.manifest.lightmap) : constantTexture([0, 0, 0, 1]);
     return {
       light_count: { value: 0 },
       light_kind: { value: new Array(n).fill(0) },
@@ -105,10 +107,14 @@ class Viewer {
     const maps = this.manifest.directional?.maps ?? [];
     const uniforms = {};
     for (let k = 0; k < 4; k++) {
-      uniforms[`directional_map${k}`] = { value: maps[k]
-        ? this.bundle.texture(maps[k], THREE.ClampToEdgeWrapping) : constantTexture([0, 0, 0, 1]) };
+      uniforms[`directional_map${k}`] = { value: maps[k] ? this.lightmapSpace(maps[k]) : constantTexture([0, 0, 0, 1]) };
     }
     return uniforms;
+  }
+
+  // The bundle's array `name`, RGBA over the stacked atlases, as a texture the lightmap UVs address.
+  lightmapSpace(name) {
+    return this.atlasGrid.texture(this.bundle.array(name));
   }
 
   material(m, vertexShader, fragmentShader) {
@@ -272,8 +278,8 @@ class Viewer {
     const position = g.getAttribute('position');
     const [a, b, c] = corners.map((i) => new THREE.Vector3().fromBufferAttribute(position, i));
     const weights = THREE.Triangle.getBarycoord(hit.point, a, b, c, new THREE.Vector3()).toArray();
-    const uv = g.getAttribute('lightmap_uv');
-    const uv1 = [0, 1].map((k) => corners.reduce((sum, i, j) => sum + weights[j] * uv.array[i * 2 + k], 0));
+    const uv = this.bundle.array('uv1');  // stacked, as the texel arrays are
+    const uv1 = [0, 1].map((k) => corners.reduce((sum, i, j) => sum + weights[j] * uv[i * 2 + k], 0));
     const result = { ndc, point: hit.point.toArray(), uv1, camera: this.cameraJson() };
     const t = this.inspector;
     if (t.t) {
@@ -677,8 +683,9 @@ async function main() {
       return { width: c.width, height: c.height, data: Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data) };
     }),
     // One frame of `spec` (model, per_vertex, normal_map, lightmap_specular, falloff, exposure,
-    // reflectivity, overlay, sky (draw the sky behind), engine (scene.glb through three.js's
-    // materials and the GLTFLoader plugin), camera {eye, target, fov}, width,
+    // reflectivity, overlay, pass (the passes slider; default the final), checker, sky (draw
+    // the sky behind), engine (scene.glb through three.js's materials and the GLTFLoader
+    // plugin), camera {eye, target, fov}, width,
     // height; lights: the lights to draw, as the manifest lists them (default: the manifest's),
     // or keep_lights: the lights as the controls left them); RGBA bytes, base64.
     renderCase(spec) {
@@ -688,6 +695,8 @@ async function main() {
       st.normalMap = Boolean(spec.normal_map);
       st.lightmapSpecular = Boolean(spec.lightmap_specular);
       st.overlay = spec.overlay ?? '';
+      st.pass = spec.pass ?? viewer.inspector.passes;
+      st.checker = Boolean(spec.checker);
       st.engine = Boolean(spec.engine);
       if (spec.exposure !== undefined) st.exposure = spec.exposure;
       if (spec.reflectivity !== undefined) st.reflectivity = spec.reflectivity;
