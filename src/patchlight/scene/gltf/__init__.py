@@ -82,7 +82,10 @@ has an occlusion map of its own (kept as it is), as
     "occlusionTexture": {"index": <texture>, "texCoord": 1, "strength": 0}
 
 glTF's no-op (occlusion 1 + strength x (texel - 1) = 1), so that validators and pruning tools,
-which do not know MOZ_lightmap, see the texture and TEXCOORD_1 used.  The texture's source is
+which do not know MOZ_lightmap, see the texture and TEXCOORD_1 used.  The rule that tells this
+stand-in from a material's own occlusion map (a re-bake replaces it, a vertex bake drops it,
+the viewer's plugin does not sample it): strength 0 on the texture of the material's own
+MOZ_lightmap.  The texture's source is
 the 8-bit PNG any viewer can read; its MOZ_texture_rgbe extension names the HDR Radiance .hdr
 image (mimeType image/vnd.radiance) that three.js's HDRLoader decodes
 (`viewer/static/patchlight_gltf.js`, the GLTFLoader plugin, does it).  The texture is linear

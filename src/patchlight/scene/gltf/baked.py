@@ -80,12 +80,13 @@ def lightmap_occlusion(texture: int) -> dict:
     return {"index": texture, "texCoord": 1, "strength": 0.0}
 
 
-def is_lightmap_occlusion(occlusion, textures: list) -> bool:
-    """Whether a material's occlusionTexture (JSON) is the stand-in of `lightmap_occlusion`:
-    it names a texture called LIGHTMAP_NAME (this bake's or an earlier one's)."""
-    index = occlusion.get("index") if isinstance(occlusion, dict) else None
-    return (isinstance(index, int) and 0 <= index < len(textures) and isinstance(textures[index], dict)
-            and textures[index].get("name") == LIGHTMAP_NAME)
+def is_lightmap_occlusion(material: dict) -> bool:
+    """Whether a material's (JSON) occlusionTexture is the stand-in of `lightmap_occlusion`, by
+    the package docstring's rule: strength 0 and the texture of the material's MOZ_lightmap."""
+    occlusion = material.get("occlusionTexture")
+    lightmap = (material.get("extensions") or {}).get(MOZ_LIGHTMAP)
+    return (isinstance(occlusion, dict) and isinstance(lightmap, dict) and occlusion.get("strength") == 0
+            and isinstance(occlusion.get("index"), int) and occlusion["index"] == lightmap.get("index"))
 
 
 def directional_name(layer: str, atlas: int | None = None) -> str:

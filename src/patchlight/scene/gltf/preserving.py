@@ -198,11 +198,11 @@ class SourceWriter(GlbEditor):
         """KHR_materials_unlit on every material, listed as used (not required); the light is in
         COLOR_0, so an earlier bake's MOZ_lightmap references, occlusion stand-ins and description go."""
         for material in self.raw.get("materials") or []:
+            if is_lightmap_occlusion(material):
+                del material["occlusionTexture"]
             material.setdefault("extensions", {})[UNLIT] = {}
             material["extensions"].pop(MOZ_LIGHTMAP, None)
             material["extensions"].pop(DIRECTIONAL, None)
-            if is_lightmap_occlusion(material.get("occlusionTexture"), self.raw.get("textures") or []):
-                del material["occlusionTexture"]
         patchlight = (self.raw.get("extras") or {}).get("patchlight")
         if isinstance(patchlight, dict):
             patchlight.pop("lightmap", None)
@@ -374,10 +374,10 @@ class SourceWriter(GlbEditor):
                 primitive["material"] = copies[number, atlas]
         for number, atlas in [*sorted(first.items()), *copies]:
             material = materials[copies.get((number, atlas), number)]
-            texture = atlas_textures[atlas]
+            texture, stand_in = atlas_textures[atlas], is_lightmap_occlusion(material)
             material["extensions"] = {**(material.get("extensions") or {}),
                                       MOZ_LIGHTMAP: lightmap_reference(texture, pages[atlas])}
-            if "occlusionTexture" not in material or is_lightmap_occlusion(material["occlusionTexture"], textures):
+            if "occlusionTexture" not in material or stand_in:
                 material["occlusionTexture"] = lightmap_occlusion(texture)  # the file's own occlusion map stays
         used = raw.setdefault("extensionsUsed", [])
         used += [name for name in (MOZ_LIGHTMAP, MOZ_RGBE) if name not in used]

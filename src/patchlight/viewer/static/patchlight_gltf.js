@@ -120,13 +120,15 @@ export class PatchlightPlugin {
     return null;
   }
 
-  // Whether the material's aoMap comes from an occlusionTexture that is its lightmap at strength 0.
+  // Whether the material's occlusionTexture is the lightmap's stand-in, by the rule of the
+  // description of scene.glb (patchlight.scene.gltf): strength 0 on the texture of its MOZ_lightmap.
   isLightmapOcclusion(material) {
     const index = this.parser.associations.get(material)?.materials;
     const def = index === undefined ? null : this.parser.json.materials[index];
     const occlusion = def?.occlusionTexture;
-    return Boolean(occlusion && occlusion.strength === 0
-                   && occlusion.index === def.extensions?.MOZ_lightmap?.index);
+    const lightmap = def?.extensions?.MOZ_lightmap;
+    return Boolean(occlusion && lightmap && occlusion.strength === 0
+                   && Number.isInteger(occlusion.index) && occlusion.index === lightmap.index);
   }
 
   // The material's lightmap read through the directional lightmap: its shader gets the GLSL chunk,
