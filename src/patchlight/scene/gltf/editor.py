@@ -248,8 +248,6 @@ def _distinct(references) -> list[tuple[dict, str]]:
     return out
 
 
-
-
 def _image_mime(data: bytes) -> str | None:
     """The MIME type of PNG, JPEG, WebP or KTX2 bytes (None for anything else)."""
     if data.startswith(b"\x89PNG\r\n\x1a\n"):
