@@ -62,6 +62,20 @@ def atlas_of_materials(extras, material_extensions: list) -> tuple[int, dict[int
     return len(textures), out
 
 
+def atlas_material(materials: list, number: int, atlas: int, name: str, first: dict[int, int],
+                   copies: dict[tuple[int, int], int], duplicate) -> int:
+    """The material a primitive of material `number` on atlas `atlas` uses: `number` itself on the
+    first atlas it is drawn on (first: material -> that atlas), else its copy for this atlas,
+    "<name> (atlas k)", appended to `materials` once (copies: (number, atlas) -> the copy) as
+    duplicate(material, copy's name)."""
+    if first.setdefault(number, atlas) == atlas:
+        return number
+    if (number, atlas) not in copies:
+        materials.append(duplicate(materials[number], f"{name} (atlas {atlas})"))
+        copies[number, atlas] = len(materials) - 1
+    return copies[number, atlas]
+
+
 def _lightmap_intensity(lightmap: EncodedLightmap) -> float:
     """MOZ_lightmap's intensity: texel x scale is I; three.js's lightMap is irradiance pi I."""
     return math.pi * lightmap.scale

@@ -16,7 +16,7 @@ from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Light, Material, Scene, atlas_uv1, triangle_atlas
 from .container import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT, LUMENS_PER_WATT, TRIANGLES, UINT, float_list
 from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, atlas_material, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
 
 def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | list[EncodedLightmap] | None, meta: dict,
                   unlit: bool, extras: dict, directional: EncodedDirectional | None = None) -> bytes:
@@ -92,18 +92,14 @@ class _GlbWriter:
     def meshes(self, scene: Scene, attributes: dict[str, int]) -> tuple[list[int], dict[int, int]]:
         """One mesh (and one identity node) per material and atlas that have triangles; returns
         the node indices and the atlas of each glTF material drawn."""
-        nodes, atlas_of = [], {}
+        nodes, atlas_of, first, copies = [], {}, {}, {}
         atlas = np.zeros(scene.n_triangles, np.int32) if scene.uv1 is None else triangle_atlas(scene)
         for material_id, material in enumerate(scene.materials):
             mine = scene.material_ids == material_id
             for k in np.unique(atlas[mine]):
                 triangles = scene.indices[mine & (atlas == k)]
-                number, name = material_id, material.name
-                if material_id in atlas_of:  # already drawn on an earlier atlas: a copy for this one
-                    name = f"{material.name} (atlas {k})"
-                    self.doc.materials.append(copy.deepcopy(self.doc.materials[material_id]))
-                    number = len(self.doc.materials) - 1
-                    self.doc.materials[number].name = name
+                number = atlas_material(self.doc.materials, material_id, int(k), material.name, first, copies, _renamed)
+                name = self.doc.materials[number].name
                 atlas_of[number] = int(k)
                 indices = self.accessor(triangles.astype(np.uint32).ravel(), "SCALAR", ELEMENT_ARRAY_BUFFER)
                 primitive = gl.Primitive(attributes=gl.Attributes(**attributes), indices=indices,
@@ -215,6 +211,13 @@ class _GlbWriter:
             material.extensions = {**(material.extensions or {}), DIRECTIONAL: directional_reference(textures, directional)}
         for name in (DIRECTIONAL, EXR):
             self.use_extension(name)
+
+
+def _renamed(material: gl.Material, name: str) -> gl.Material:
+    """A deep copy of `material` named `name`."""
+    out = copy.deepcopy(material)
+    out.name = name
+    return out
 
 
 def _to_uint8(values: np.ndarray) -> np.ndarray:

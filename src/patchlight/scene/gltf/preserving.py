@@ -15,7 +15,7 @@ from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene, atlas_uv1, triangle_atlas
 from .container import Document, FLOAT, GLB_MAGIC, POINTS_AND_LINES, TRIANGLES, UINT, attribute_map, document_text, file_stamp, split_glb
 from .baked import DIRECTIONAL, EXR, EXR_MIME, directional_name, directional_reference, is_bake_map
-from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
+from .baked import HDR_MIME, LIGHTMAP_HDR_NAME, LIGHTMAP_NAME, LIGHTMAP_SAMPLER, MOZ_LIGHTMAP, MOZ_RGBE, UNLIT, atlas_material, is_lightmap_occlusion, jsonable, lightmap_description, lightmap_occlusion, lightmap_pages, lightmap_reference
 from .editor import GlbEditor
 
 class SourceWriter(GlbEditor):
@@ -364,14 +364,11 @@ class SourceWriter(GlbEditor):
         copies: dict[tuple[int, int], int] = {}
         first: dict[int, int] = {}
         for primitive in sorted(lit, key=lambda p: self.atlas.get(id(p), 0)):
-            number, atlas = primitive["material"], self.atlas.get(id(primitive), 0)
-            if first.setdefault(number, atlas) != atlas:
-                if (number, atlas) not in copies:
-                    copy = json.loads(json.dumps(materials[number]))
-                    copy["name"] = f"{materials[number].get('name') or f'material {number}'} (atlas {atlas})"
-                    materials.append(copy)
-                    copies[number, atlas] = len(materials) - 1
-                primitive["material"] = copies[number, atlas]
+            number = primitive["material"]
+            primitive["material"] = atlas_material(materials, number, self.atlas.get(id(primitive), 0),
+                                                   materials[number].get("name") or f"material {number}",
+                                                   first, copies,
+                                                   lambda material, name: {**json.loads(json.dumps(material)), "name": name})
         for number, atlas in [*sorted(first.items()), *copies]:
             material = materials[copies.get((number, atlas), number)]
             texture, stand_in = atlas_textures[atlas], is_lightmap_occlusion(material)
