@@ -34,8 +34,7 @@ def flattened_glb(scene: Scene, folder: Path, lightmap: EncodedLightmap | list[E
     writer.doc.scene = 0
     writer.doc.extras = {"patchlight": jsonable(extras)} if extras else {}
     if lightmap is not None:
-        writer.lightmap(lightmap_pages(lightmap), meta, atlas_of)
-        sampler = writer.doc.textures[-1].sampler
+        sampler = writer.lightmap(lightmap_pages(lightmap), meta, atlas_of)
         for k, maps in enumerate(lightmap_pages(directional) if directional is not None else []):
             writer.directional(maps, sampler, [m for m in range(len(writer.doc.materials)) if atlas_of.get(m, 0) == k],
                                None if scene.atlases == 1 else k)
@@ -173,10 +172,11 @@ class _GlbWriter:
                                       rotation=_look_rotation(np.asarray(camera["target"], np.float64) - eye)))
         return [len(self.doc.nodes) - 1]
 
-    def lightmap(self, pages: list[EncodedLightmap], meta: dict, atlas_of: dict[int, int]) -> None:
+    def lightmap(self, pages: list[EncodedLightmap], meta: dict, atlas_of: dict[int, int]) -> int:
         """The lightmap as one texture "patchlight_lightmap" per atlas (PNG source, .hdr through
         MOZ_texture_rgbe), MOZ_lightmap and the occlusionTexture stand-in (baked.lightmap_occlusion)
-        of its atlas's texture on every material, and its description in the root extras."""
+        of its atlas's texture on every material, and its description in the root extras; returns
+        the sampler of the last atlas's texture (the directional layers use it)."""
         description = lightmap_description(pages, meta)
         textures = []
         for lightmap in pages:
@@ -194,6 +194,7 @@ class _GlbWriter:
             self.use_extension(name)
         description.update({"texture": textures[0]} if len(pages) == 1 else {"textures": textures})
         self.doc.extras = {"patchlight": {**self.doc.extras.get("patchlight", {}), "lightmap": description}}
+        return self.doc.textures[textures[-1]].sampler
 
     def directional(self, directional: EncodedDirectional, sampler: int, materials: list[int],
                     atlas: int | None = None) -> None:
