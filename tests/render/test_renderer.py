@@ -149,6 +149,26 @@ def test_default_camera_sees_an_object_from_outside_and_a_room_from_inside():
     assert Renderer(room).render(target_settings(room), camera, 16, 16).covered.all()
 
 
+def test_a_lone_plane_is_seen_from_above_and_reflects_from_off_its_surface():
+    """The centre of a lone plane lies on it: the default camera looks from outside (not from
+    within the plane), and the environment cube is rendered from a point off it (from the
+    plane's centre every ray meets the plane at distance 0: no view vector, NaN light)."""
+    plane = Target.from_scene(scene_from_parts([_quad([[-2, 0, 2], [2, 0, 2], [2, 0, -2], [-2, 0, -2]], [0, 1, 0])],
+                                               [Material(name="floor", base_color=np.ones(4, np.float32))], [0],
+                                               [Light(kind="directional", color=np.ones(3, np.float32), intensity=3.0,
+                                                      direction=np.float32([0.3, -1.0, 0.2]))]))
+    renderer = Renderer(plane)
+    assert renderer.on_surface(renderer.center)
+    camera = renderer.default_camera()
+    assert abs(camera.eye[1]) > 1.0
+    point = renderer.environment_point()
+    assert not renderer.on_surface(point) and not renderer.is_inside(point)
+    settings = target_settings(plane, model="envmap")
+    assert np.isfinite(renderer.environment(settings)).all()
+    result = renderer.render(settings, camera, 16, 16)
+    assert result.covered.mean() > 0.1 and np.isfinite(result.radiance).all()  # edge-on before: none
+
+
 def test_every_model_and_option_renders_the_showcase():
     target = showcase_target(12, 24)
     renderer = Renderer(target)

@@ -91,6 +91,12 @@ class Renderer:
         The one test for the camera's eye, the environment map's centre and default_camera."""
         return bool(is_inside(self.inside_share(point), "point"))
 
+    def on_surface(self, point) -> bool:
+        """`point` (3,) lies on a surface: some direction from it meets one within the
+        pass-through step, where what it sees has no view vector."""
+        hits = self._probe(point)
+        return bool(np.any((hits.tri >= 0) & (hits.t <= self._epsilon)))
+
     def require_outside(self, point, where: str, remedy: str = "") -> None:
         """PatchlightError (one line, `where` names the point, `remedy` the way out) when
         `point` is inside geometry."""
@@ -108,7 +114,8 @@ class Renderer:
             return camera
         lo, hi = self.target.scene.bounds()
         hits = self._probe(self.center)
-        hit_share = np.count_nonzero(hits.tri >= 0) / PROBE_RAYS
+        hit_share = np.count_nonzero((hits.tri >= 0) & (hits.t > self._epsilon)) / PROBE_RAYS  # a surface
+        # through the centre (a lone plane) encloses nothing
         inside = is_inside(back_share(self._culled(hits)), "point")
         enclosed = hit_share >= ENCLOSED_FRACTION and not inside
         candidates = (interior_cameras(lo, hi) if enclosed else []) + [overview_camera(lo, hi)]
@@ -225,13 +232,14 @@ class Renderer:
     def environment_point(self) -> np.ndarray:
         """(3,) where the environment cube is rendered from when it is not the sky:
         envmap_from when given; else the scene's centre, or, when that is inside geometry (a
-        closed object such as a single-sided sphere), the default camera's eye. A
+        closed object such as a single-sided sphere) or on a surface (a lone plane), the
+        default camera's eye. A
         PatchlightError naming `envmap_from` and `sky` when the point is inside geometry."""
         if self.envmap_from is not None:
             where = "`envmap_from` {:g},{:g},{:g}".format(*self.envmap_from)
             self.require_outside(self.envmap_from, where, "; choose a point in the open")
             return self.envmap_from
-        if not self.is_inside(self.center):
+        if not self.is_inside(self.center) and not self.on_surface(self.center):
             return self.center
         eye = np.asarray(self.default_camera().eye, np.float32)
         if self.is_inside(eye):
