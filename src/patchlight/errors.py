@@ -7,6 +7,11 @@ class PatchlightError(Exception):
     the flags that set them instead (cli/parser.py `user_line`)."""
 
 
+class PatchlightWarning(UserWarning):
+    """Something the user should know that does not stop the work (the command line prints
+    it as one line, `patchlight: warning: ...`; other libraries' warnings it hides)."""
+
+
 class SettingError(PatchlightError):
     """A setting outside what its field accepts. Names the field (`field`, `value`, `problem`);
     the command line names the flag that set it instead."""

@@ -436,6 +436,29 @@ def test_a_changed_source_file_gives_the_flattened_copy_with_a_warning(tmp_path)
     np.testing.assert_array_equal(world_triangles(load_gltf(tmp_path / "flat.glb")), world_triangles(scene))
 
 
+def test_a_broken_reference_the_reader_never_follows_gives_the_flattened_copy_and_one_warning(tmp_path, capsys):
+    """A skin naming accessor 999 (the reader reads no skins): the source-preserving writer
+    cannot renumber it, so scene.glb is the flattened copy and the command line says why in
+    one line (before: an IndexError traceback after the whole bake)."""
+    source = Doc().build().glb(tmp_path / "level.glb")
+    data = source.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    doc["skins"][0]["inverseBindMatrices"] = 999
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + length:]
+    source.write_bytes(struct.pack("<4sII", b"glTF", 2, 20 + len(text) + len(rest))
+                       + struct.pack("<I4s", len(text), b"JSON") + text + rest)
+    assert main(["bake", str(source), "-o", str(tmp_path / "out"), "--resolution", "32", "--rays", "16",
+                 "--passes", "1", "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()  # the file's other oddities are warned too
+    assert all(line.startswith("patchlight: warning: ") for line in err), err
+    flattened = [line for line in err if "accessors 999" in line]
+    assert len(flattened) == 1 and "flattened copy" in flattened[0], err
+    assert "skins" not in read_glb(tmp_path / "out" / "scene.glb")[0]
+
+
 def test_built_in_scenes_are_written_as_before(tmp_path):
     room = load_scene("room")
     with warnings.catch_warnings():

@@ -55,7 +55,7 @@ def _stopped(number: int) -> int:
 
 
 def _run(argv: list[str] | None) -> int:
-    from ..errors import PatchlightError
+    from ..errors import PatchlightError, PatchlightWarning
     from ..scene.gltf import outside_files_allowed
     from .parser import build_parser
 
@@ -67,10 +67,17 @@ def _run(argv: list[str] | None) -> int:
     try:
         with outside_files_allowed(getattr(args, "allow_outside_files", False)), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the user gets patchlight's own lines, not NumPy's
+            warnings.simplefilter("always", PatchlightWarning)
+            warnings.showwarning = _warning_line
             return int(args.func(args) or 0)
     except PatchlightError as exc:  # the library names fields; the user set them by their flags
         print(f"patchlight: error: {parser.commands[args.command].user_line(exc)}", file=sys.stderr)
         return 2
+
+
+def _warning_line(message, *_) -> None:
+    """A PatchlightWarning as one line on stderr."""
+    print(f"patchlight: warning: {message}", file=sys.stderr)
 
 
 class _StopSignals:

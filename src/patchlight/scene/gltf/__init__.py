@@ -125,7 +125,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from ...errors import PatchlightError
+from ...errors import PatchlightError, PatchlightWarning
 from ...imaging.io import atomic_path
 from ...imaging.lightmap import EncodedDirectional, EncodedLightmap
 from ..model import Scene
@@ -176,7 +176,8 @@ def save_baked_glb(scene: Scene, path, lightmap: EncodedLightmap | list[EncodedL
             source = f"its file could not be rewritten ({exc})"
     if glb is None:
         if source is not None:
-            warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy", stacklevel=2)
+            warnings.warn(f"{scene.label}: {source}; {Path(path).name} written as a flattened copy",
+                          PatchlightWarning, stacklevel=2)
         glb = flattened_glb(scene, folder, lightmap, lightmap_meta or {}, unlit, extras or {}, directional)
     with atomic_path(path) as tmp:
         tmp.write_bytes(glb)

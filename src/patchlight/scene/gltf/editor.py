@@ -161,18 +161,27 @@ class GlbEditor:
             self.view_order = list(range(len(raw["bufferViews"])))
             return
         references = _distinct(self.accessor_references())
-        referenced = sorted({holder[key] for holder, key in references})
+        referenced = self._referenced(references, "accessors")
         accessor_map = {old: new for new, old in enumerate(referenced)}
         for holder, key in references:
             holder[key] = accessor_map[holder[key]]
         raw["accessors"] = [raw["accessors"][old] for old in referenced]
         references = _distinct(self.view_references())
-        views = sorted({holder[key] for holder, key in references})
+        views = self._referenced(references, "bufferViews")
         view_map = {old: new for new, old in enumerate(views)}
         for holder, key in references:
             holder[key] = view_map[holder[key]]
         self.view_order = views
         raw["bufferViews"] = [raw["bufferViews"][old] for old in views]
+
+    def _referenced(self, references, kind: str) -> list[int]:
+        """The sorted distinct indices into raw[kind] that `references` hold; PatchlightError
+        when one is not such an index (a broken file)."""
+        count, indices = len(self.raw[kind]), {holder[key] for holder, key in references}
+        bad = [i for i in indices if not isinstance(i, int) or isinstance(i, bool) or not 0 <= i < count]
+        if bad:
+            raise PatchlightError(f"{self.path}: a reference to {kind} {bad[0]!r}, but the file has {count}")
+        return sorted(indices)
 
     def accessor_references(self):
         """(holder dict, key) of every accessor reference this writer knows."""
