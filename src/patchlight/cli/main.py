@@ -85,7 +85,10 @@ class _StopSignals:
     their number (`received`); another one while the first is being cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
-    (SIGALRM). Only in the main thread (main() called from a test's thread: no handlers).
+    (SIGALRM), as does one that lands in numba's or llvmlite's own Python code (compiling,
+    loading or launching a kernel): raised there, it left their objects half built, and the
+    process crashed (SIGSEGV) when it freed them. Only in the main thread (main() called
+    from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
     main), `_exit_now`: the work is done; the exit handlers may take a while."""
 
@@ -119,6 +122,10 @@ class _StopSignals:
     def stop(self, number, frame) -> None:
         self.stopping = True
         if self.received is None:
+            if _in_numba(frame):  # raised there, it leaves numba's objects half built
+                self.pending = number
+                signal.setitimer(signal.ITIMER_REAL, 0.005)
+                return
             self.received = number
             raise KeyboardInterrupt
 
@@ -133,6 +140,16 @@ class _StopSignals:
             self.previous_hook(unraisable)
         # else an object the interrupt left half built failed in its __del__ (llvmlite's, when
         # the signal lands while numba compiles): part of the stop, not news to the user
+
+
+def _in_numba(frame) -> bool:
+    """The Python code running is numba's or llvmlite's (compiling, loading or launching a
+    kernel), at any depth of the stack."""
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").partition(".")[0] in ("numba", "llvmlite"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _ignore(unraisable) -> None:
