@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import argparse
-import sys
+import warnings
 from pathlib import Path
 
 from ..config import DIRECTIONAL_MODES, GATHERS, BakeSettings
-from ..errors import PatchlightError
+from ..errors import PatchlightError, PatchlightWarning
 from .options import DEFAULTS, about, add_scene_options, declared_field, load_lit_scene
 from .parser import finite_number, writes_output
 
@@ -114,5 +114,5 @@ def run(args) -> int:
               f"{s['passes']} passes, {s['rays_per_second'] / 1e6:.2f} Mrays/s")
         print(f"results in {args.output}/: {' '.join(s['files'])}")
     for warning in summary.get("warnings", []):
-        print(f"patchlight: warning: {warning}", file=sys.stderr)
+        warnings.warn(warning, PatchlightWarning)  # one line on stderr (cli/main.py)
     return 0

@@ -14,9 +14,11 @@ import argparse
 import json
 import os
 import sys
+import warnings
 from pathlib import Path
 
 from ..config import BakeSettings
+from ..errors import PatchlightWarning
 from .options import about, add_scene_options, load_lit_scene, sky_from_args
 from .parser import finite_number, writes_output
 from .values import parse_area
@@ -116,5 +118,5 @@ def run(args) -> int:
               f"{sum(ground_map.seconds.values()):.2f} s, {100 * ground_map.shadowed:.0f}% in shadow")
         print(f"results in {args.output}/: {files} groundmap.json" + (" and the bake" if made else ""))
     for warning in ground_map.warnings:
-        print(f"patchlight: warning: {warning}", file=sys.stderr)
+        warnings.warn(warning, PatchlightWarning)  # one line on stderr (cli/main.py)
     return 0
