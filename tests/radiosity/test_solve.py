@@ -24,3 +24,19 @@ def test_no_stop_without_a_contraction_seen_twice(changes):
 
 def test_an_exact_fixed_point_stops_at_once():
     assert change_to_come([1.0, 0.0]) == 0.0
+
+
+@pytest.mark.parametrize("n_cols", [1000, 3 * 65536 + 17])  # one column panel, and four
+def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
+    import numpy as np
+    import scipy.sparse as sp
+
+    from patchlight.radiosity.solve import PanelBlock
+
+    rng = np.random.default_rng(3)
+    F = sp.random(300, n_cols, density=40 / n_cols, format="csr", dtype=np.float32, random_state=rng)
+    F.indices = F.indices.astype(np.int32)
+    B = rng.random((n_cols, 3), dtype=np.float32)
+    block = PanelBlock.of(F)
+    assert block.n_rows == 300 and len(block.weights) == F.nnz
+    np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)

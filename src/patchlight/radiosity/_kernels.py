@@ -353,23 +353,62 @@ def item_buffer_times(seen, weights, B):
     return out
 
 
+PANEL_BITS = 16  # a panel is 2^16 columns of F: its slice of B (768 KiB) stays in a core's L2 cache
+
+
 @nb.njit(cache=True, nogil=True)
-def csr_times_rgb(indptr, indices, data, B, first, last):
-    """(last - first, 3) f32 product of rows first..last-1 of a CSR matrix (R x N, f32) with
-    B (N, 3) f32, on the calling thread (the caller spreads row ranges over the cores).
-    Accumulates in f32: rows hold a few hundred terms, far inside its precision."""
-    out = np.zeros((last - first, 3), np.float32)
+def panel_major(indptr, indices, data, first, last, panels):
+    """Rows first..last-1 (at most 2^16) of a CSR matrix (f32, int32 columns) reordered
+    column panel by column panel (PANEL_BITS), rows ascending within a panel: starts
+    (panels + 1,) int64 where each panel's entries begin, rows (nnz,) u16 (from first), cols
+    (nnz,) u16 (within the panel), weights (nnz,) f32. A counting sort: O(nnz + panels)."""
+    a, b = indptr[first], indptr[last]
+    starts = np.zeros(panels + 1, np.int64)
+    for k in range(a, b):
+        starts[(indices[k] >> PANEL_BITS) + 1] += 1
+    for p in range(panels):
+        starts[p + 1] += starts[p]
+    fill = starts[:-1].copy()
+    rows = np.empty(b - a, np.uint16)
+    cols = np.empty(b - a, np.uint16)
+    weights = np.empty(b - a, np.float32)
     for r in range(first, last):
-        a0 = np.float32(0.0)
-        a1 = np.float32(0.0)
-        a2 = np.float32(0.0)
         for k in range(indptr[r], indptr[r + 1]):
-            w = data[k]
             c = indices[k]
+            at = fill[c >> PANEL_BITS]
+            fill[c >> PANEL_BITS] = at + 1
+            rows[at] = r - first
+            cols[at] = c & ((1 << PANEL_BITS) - 1)
+            weights[at] = data[k]
+    return starts, rows, cols, weights
+
+
+@nb.njit(cache=True, nogil=True)
+def panel_times_rgb(starts, rows, cols, weights, B, n_rows):
+    """(n_rows, 3) f32 product of a panel-major block (`panel_major`) with B (N, 3) f32, on
+    the calling thread. Panel by panel, the block's reads of B stay in one 2^16-row slice
+    and its sums in an n_rows x 3 array, both cache-resident: about 3x faster than row by
+    row over a CSR matrix whose B is larger than the caches (whose every read then misses)."""
+    out = np.zeros((n_rows, 3), np.float32)
+    for p in range(starts.shape[0] - 1):
+        base = p << PANEL_BITS
+        r = -1
+        a0 = a1 = a2 = np.float32(0.0)
+        for k in range(starts[p], starts[p + 1]):
+            if rows[k] != r:  # a row's entries in a panel are contiguous: sum them, then add once
+                if r >= 0:
+                    out[r, 0] += a0
+                    out[r, 1] += a1
+                    out[r, 2] += a2
+                r = rows[k]
+                a0 = a1 = a2 = np.float32(0.0)
+            c = base + cols[k]
+            w = weights[k]
             a0 += w * B[c, 0]
             a1 += w * B[c, 1]
             a2 += w * B[c, 2]
-        out[r - first, 0] = a0
-        out[r - first, 1] = a1
-        out[r - first, 2] = a2
+        if r >= 0:
+            out[r, 0] += a0
+            out[r, 1] += a1
+            out[r, 2] += a2
     return out

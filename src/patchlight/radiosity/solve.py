@@ -16,15 +16,14 @@ from . import _kernels, adaptive
 from .gather import Gatherer
 
 
-ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time: the most F held beside the kept rows
-ROWS_PER_PRODUCT = 1 << 12  # rows of F B per task on the tracer's threads (one per core)
+ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time, kept as one PanelBlock (at most 2^16 rows)
 
 
 @dataclass
 class FormFactors:
     """The computed patches' rows: ids (C,), constant terms S (C, 3) (sky and the gather's share
-    of emitted light), and F (C, N) CSR while it
-    fits in `budget` bytes. When the next block of rows would not fit, F is dropped, and every
+    of emitted light), and F (C, N) as panel-major blocks (PanelBlock) while it fits in
+    `budget` bytes. When the next block of rows would not fit, F is dropped, and every
     product re-gathers its rows chunk by chunk (Gatherer.product): bounded memory, the same
     answer (the ray pattern is seeded per patch), more rays."""
 
@@ -57,7 +56,7 @@ class FormFactors:
         self.S = np.concatenate([self.S, g.S])
         self.lost_rays += g.lost
         if self.kept and self.nbytes + _csr_bytes(g.F) <= self.budget:
-            self.blocks.append(g.F)
+            self.blocks.append(PanelBlock.of(g.F))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -70,18 +69,40 @@ class FormFactors:
         if not self.blocks:
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        ranges = [(F, first, min(first + ROWS_PER_PRODUCT, F.shape[0]))
-                  for F in self.blocks for first in range(0, F.shape[0], ROWS_PER_PRODUCT)]
-        return np.concatenate(self.gatherer.tracer.map(
-            lambda r: _kernels.csr_times_rgb(r[0].indptr, r[0].indices, r[0].data, B, r[1], r[2]), ranges))
+        return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), self.blocks))
 
     @property
     def nnz(self) -> int:
-        return int(sum(F.nnz for F in self.blocks))
+        return int(sum(len(block.weights) for block in self.blocks))
 
     @property
     def nbytes(self) -> int:
-        return int(sum(_csr_bytes(F) for F in self.blocks))
+        return int(sum(block.nbytes for block in self.blocks))
+
+
+@dataclass
+class PanelBlock:
+    """Rows of F (a gathered block, at most 2^16) column panel by column panel
+    (`_kernels.panel_major`): the unit of F B one core multiplies at a time."""
+
+    starts: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    weights: np.ndarray
+    n_rows: int
+
+    @classmethod
+    def of(cls, F: sp.csr_matrix) -> PanelBlock:
+        panels = (F.shape[1] >> _kernels.PANEL_BITS) + 1
+        return cls(*_kernels.panel_major(F.indptr, F.indices, F.data, 0, F.shape[0], panels), F.shape[0])
+
+    def times(self, B: np.ndarray) -> np.ndarray:
+        """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
+        return _kernels.panel_times_rgb(self.starts, self.rows, self.cols, self.weights, B, self.n_rows)
+
+    @property
+    def nbytes(self) -> int:
+        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
 
 
 def _csr_bytes(F: sp.csr_matrix) -> int:
