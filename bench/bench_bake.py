@@ -2,11 +2,10 @@
 
 Prints, per scene: patches, computed patches, rays traced, rays per second, seconds per
 stage, and the ratio of the whole bake's time to the time embreex alone needs to trace the
-same rays: the rays the bake cast (closest-hit and occlusion) are recorded as they are cast
-and re-traced afterwards with bare `EmbreeScene.run` calls on a thread per core. The JIT is
-warmed up first, untimed. The recording costs memory (about 50 bytes a ray) and, as its
-copies are made while the bake runs, some of the bake's time: the ratio errs on the high side.
-Large lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so
+same rays: the bake runs twice, timed and then untimed while the rays it casts (closest-hit
+and occlusion) are recorded (the bake is deterministic: both cast the same rays), and the
+recorded rays are re-traced with bare `EmbreeScene.run` calls on a thread per core. The JIT
+is warmed up first, untimed. The recording costs memory (about 50 bytes a ray). Large lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so
 the copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
 scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation and
 the same ratio in CPU seconds (bake's process against bare embreex's), which a shared
@@ -100,10 +99,11 @@ def embree_alone(scene, rays: RecordedRays) -> tuple[float, float, float]:
 def run(name: str, settings: BakeSettings, sample: int) -> None:
     scene = load_scene(name)
     bake(scene, BakeSettings(resolution=128, passes=2))  # JIT warm-up, not timed
-    with RecordedRays(sample) as rays:
-        start = time.perf_counter()
-        result = bake(scene, settings)
-        total = time.perf_counter() - start
+    start = time.perf_counter()
+    result = bake(scene, settings)
+    total = time.perf_counter() - start
+    with RecordedRays(sample) as rays:  # the same bake again (it is deterministic), untimed
+        bake(scene, settings)
     s = result.stats
     closest, occlusion, embree_cpu = embree_alone(result.scene, rays)
     n_closest, n_occlusion = rays.cast[False], rays.cast[True]

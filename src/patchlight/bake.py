@@ -161,7 +161,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         status, order = gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
         inside = status == adaptive.INSIDE
+        rays_before_walls = tracer.rays_traced
         walled = walled_inside(patches, inside, tracer, offset)
+        rays_walls = tracer.rays_traced - rays_before_walls  # between texels found inside
         rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
         pass_incident = []
         with progress.stage("passes", total=settings.passes) as advance:
@@ -200,8 +202,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "walled_inside_patches": int(walled.sum()),
         "gather": settings.gather,
         "rays_per_patch": gatherer.rays_per_patch,
-        "rays_traced": rays_direct + ff.rays_probed + ff.rays + ff.rays_regathered,
+        "rays_traced": rays_direct + ff.rays_probed + ff.rays + ff.rays_regathered + rays_walls,
         "rays_direct": rays_direct,
+        "rays_walls": rays_walls,
         "rays_probe": ff.rays_probed,
         "rays_gather": ff.rays,
         "rays_regather": ff.rays_regathered,
