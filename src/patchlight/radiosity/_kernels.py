@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from ..rays.inside import is_back_face
+from ..rays.tracer import faces_ray
 
 SKY = -1        # the ray escaped: it sees the sky
 BACK_FACE = -2  # the ray hit a triangle from behind: the patch may lie inside geometry
@@ -12,43 +15,94 @@ LOST = -3       # the hit's lightmap texel is covered by no patch
 NEIGHBOURS = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)
 
 
+TEXEL_BLOCK = 32  # texels per word of a texel-rank table (coverage bits below, rank above)
+
+
+def texel_ranks(index: np.ndarray) -> np.ndarray:
+    """(H, ceil(W / 32)) u64 texel-rank table of a patch index (H, W) i32 whose patch ids run
+    0, 1, ... over its covered texels in (y, x) order (`Patches` rows): each word holds the
+    coverage of 32 texels of a row in its low 32 bits (texel x at bit x % 32) and, above, the
+    id of the first patch at or after the word's first texel. 1/16 of the index's bytes, so
+    the item buffer's random look-ups stay in a core's cache (a 2048 map: 1 MiB, not 16)."""
+    height, width = index.shape
+    covered = np.zeros((height, -(-width // TEXEL_BLOCK) * TEXEL_BLOCK), bool)
+    covered[:, :width] = index >= 0
+    if not np.array_equal(index[covered[:, :width]], np.arange(np.count_nonzero(covered))):
+        raise ValueError("patch ids do not follow their texels in (y, x) order")
+    blocks = covered.reshape(height, -1, TEXEL_BLOCK)
+    bits = np.packbits(blocks, axis=2, bitorder="little").view("<u4")[..., 0].astype(np.uint64)
+    count = blocks.sum(axis=2, dtype=np.uint64).ravel()
+    first = (np.cumsum(count) - count).reshape(bits.shape)
+    return bits | (first << np.uint64(32))
+
+
+@nb.njit(cache=True, inline="always")
+def _bit_count(x):
+    """Set bits of a 32-bit word x (u64)."""
+    x = x - ((x >> 1) & 0x55555555)
+    x = (x & 0x33333333) + ((x >> 2) & 0x33333333)
+    x = (x + (x >> 4)) & 0x0F0F0F0F
+    return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
+
+
+def _texel_patch(index, y, x):
+    """The patch id of texel (y, x) of `index` (H, W) i32 or its `texel_ranks`; -1 uncovered."""
+
+
+@overload(_texel_patch, inline="always")
+def _texel_patch_typed(index, y, x):
+    if index.dtype != types.uint64:
+        return lambda index, y, x: index[y, x]
+
+    def ranked(index, y, x):
+        word = index[y, x // TEXEL_BLOCK]
+        bit = np.uint64(x % TEXEL_BLOCK)
+        if (word >> bit) & np.uint64(1) == 0:
+            return -1
+        below = word & ((np.uint64(1) << bit) - np.uint64(1))
+        return np.int64(word >> np.uint64(32)) + np.int64(_bit_count(below))
+    return ranked
+
+
 @nb.njit(cache=True, inline="always")
 def _patch_at(t, u, v, tri_uv1, width, height, index):
     """The patch under point (u, v) (barycentrics of corners 1 and 2) of triangle t: the
     lightmap texel under its TEXCOORD_1, or the nearest covered texel of its 3 x 3
-    neighbourhood (the four sides, then the corners); LOST when none is covered."""
+    neighbourhood (the four sides, then the corners); LOST when none is covered.
+    index: the (H, W) patch index or its `texel_ranks`."""
     w0 = 1.0 - u - v
     su = w0 * tri_uv1[t, 0, 0] + u * tri_uv1[t, 1, 0] + v * tri_uv1[t, 2, 0]
     sv = w0 * tri_uv1[t, 0, 1] + u * tri_uv1[t, 1, 1] + v * tri_uv1[t, 2, 1]
     x = min(max(int(su * width), 0), width - 1)
     y = min(max(int(sv * height), 0), height - 1)
-    found = index[y, x]
+    found = _texel_patch(index, y, x)
     for k in range(8):
         if found >= 0:
             break
         yy, xx = y + NEIGHBOURS[k, 0], x + NEIGHBOURS[k, 1]
         if 0 <= yy < height and 0 <= xx < width:
-            found = index[yy, xx]
+            found = _texel_patch(index, yy, xx)
     return found if found >= 0 else LOST
 
 
 @nb.njit(cache=True, nogil=True)
-def resolve_hits(tri, u, v, front, two_sided, tri_uv1, width, height, index):
+def resolve_hits(tri, normal, dirs, u, v, two_sided, tri_uv1, width, height, ranks):
     """The item buffer: the patch each ray sees, or SKY / BACK_FACE / LOST. (R,) i32.
 
-    tri, u, v, front: the tracer's hits; two_sided: (T,) bool, triangles whose back is an
-    ordinary surface (glTF doubleSided): a hit on it is a hit, never BACK_FACE; tri_uv1:
-    (T, 3, 2) lightmap UVs of each triangle's corners; index: (H, W) patch id per texel.
+    tri, normal, u, v: the tracer's closest hits (`Hits`) of rays along dirs (R, 3) f32;
+    two_sided: (T,) bool, triangles whose back is an ordinary surface (glTF doubleSided): a
+    hit on it is a hit, never BACK_FACE; tri_uv1: (T, 3, 2) lightmap UVs of each triangle's
+    corners; ranks: the `texel_ranks` of the (H, W) patch index.
     """
     out = np.empty(tri.shape[0], np.int32)
     for i in range(tri.shape[0]):
         t = tri[i]
         if t < 0:
             out[i] = SKY
-        elif is_back_face(t, front[i], two_sided):
+        elif is_back_face(t, faces_ray(normal, dirs, i), two_sided):
             out[i] = BACK_FACE
         else:
-            out[i] = _patch_at(t, u[i], v[i], tri_uv1, width, height, index)
+            out[i] = _patch_at(t, u[i], v[i], tri_uv1, width, height, ranks)
     return out
 
 

@@ -72,6 +72,7 @@ class Gatherer:
         self.method, self.seed, self.offset = method, seed, offset
         self.emitters, self.nee_samples = emitters, nee_samples
         self.emits = bool(np.any(patches.emission > 0))
+        self.ranks = _kernels.texel_ranks(patches.index)
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
         elif method == "stratified":
@@ -146,8 +147,8 @@ class Gatherer:
         origins, dirs = hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
                                         local_dirs, row_angles(rows, self.seed))
         hits = self.tracer.intersect_chunk(origins, dirs)
-        seen = _kernels.resolve_hits(hits.tri, hits.u, hits.v, hits.front, self.two_sided, self.tri_uv1,
-                                     p.width, p.height, p.index)
+        seen = _kernels.resolve_hits(hits.tri, hits.normal, dirs, hits.u, hits.v, self.two_sided, self.tri_uv1,
+                                     p.width, p.height, self.ranks)
         return seen, dirs, hits
 
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:

@@ -6,6 +6,7 @@ every ray at t = 0: callers offset their origins off the surface themselves.
 """
 from __future__ import annotations
 
+import functools
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -19,28 +20,41 @@ from ..errors import PatchlightError
 CHUNK = 65536  # rays per task: large enough to amortise the call, small enough to balance 2 cores
 
 
+@nb.njit(cache=True, inline="always")
+def faces_ray(normal, directions, i):
+    """Ray i meets its triangle's front face: the geometric normal normal[i] (f32, its
+    winding's) points back at the ray's direction directions[i] (the dot product in
+    float32, summed in order x, y, z)."""
+    dot = normal[i, 0] * directions[i, 0] + normal[i, 1] * directions[i, 1] + normal[i, 2] * directions[i, 2]
+    return dot < np.float32(0.0)
+
+
+@nb.njit(cache=True, nogil=True)
+def _front_faces(tri, normal, directions):
+    """(N,) bool `faces_ray` of the rays that hit a triangle (tri >= 0)."""
+    out = np.empty(tri.shape[0], np.bool_)
+    for i in range(tri.shape[0]):
+        out[i] = tri[i] >= 0 and faces_ray(normal, directions, i)
+    return out
+
+
 @dataclass
 class Hits:
-    """Closest hits of N rays. tri (N,) i32, -1 where the ray escaped; u, v (N,) barycentrics
-    of corners 1 and 2; t (N,) distance along the (unit) direction; front (N,) True where the
-    ray met the triangle's front face (its winding's normal points back at the ray)."""
+    """Closest hits of N rays along directions (N, 3) f32. tri (N,) i32, -1 where the ray
+    escaped; u, v (N,) barycentrics of corners 1 and 2; t (N,) distance along the (unit)
+    direction; normal (N, 3) f32 the hit triangle's geometric normal (its winding's)."""
 
     tri: np.ndarray
     u: np.ndarray
     v: np.ndarray
     t: np.ndarray
-    front: np.ndarray
+    normal: np.ndarray
+    directions: np.ndarray
 
-
-@nb.njit(cache=True, nogil=True)
-def _front_faces(tri, normal, directions):
-    """(N,) bool: rays that hit a triangle (tri >= 0) against its geometric normal (N, 3) f32,
-    the dot product in float32, summed in order x, y, z."""
-    out = np.empty(tri.shape[0], np.bool_)
-    for i in range(tri.shape[0]):
-        dot = normal[i, 0] * directions[i, 0] + normal[i, 1] * directions[i, 1] + normal[i, 2] * directions[i, 2]
-        out[i] = tri[i] >= 0 and dot < np.float32(0.0)
-    return out
+    @functools.cached_property
+    def front(self) -> np.ndarray:
+        """(N,) bool: True where the ray met the triangle's front face (`faces_ray`)."""
+        return _front_faces(self.tri, self.normal, self.directions)
 
 
 def _threads() -> int:
@@ -100,18 +114,16 @@ class Tracer:
         d = np.ascontiguousarray(directions, np.float32)
         self._count(len(o))
         r = self._ready().run(o, d, output=1)
-        tri = r["primID"].astype(np.int32, copy=False)
-        front = _front_faces(tri, r["Ng"], d)
-        return Hits(tri, r["u"], r["v"], r["tfar"], front)
+        return Hits(r["primID"], r["u"], r["v"], r["tfar"], r["Ng"], d)
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """Closest hit of each ray. origins, directions: (N, 3); directions unit length."""
-        parts = self._map(self.intersect_chunk, len(origins), origins, directions)
+        d = np.ascontiguousarray(directions, np.float32)
+        parts = self._map(self.intersect_chunk, len(origins), origins, d)
         if not parts:
             empty = np.zeros(0, np.float32)
-            return Hits(np.zeros(0, np.int32), empty, empty, empty, np.zeros(0, bool))
-        return Hits(*(np.concatenate(x) for x in zip(*(
-            (h.tri, h.u, h.v, h.t, h.front) for h in parts))))
+            return Hits(np.zeros(0, np.int32), empty, empty, empty, np.zeros((0, 3), np.float32), d)
+        return Hits(*(np.concatenate(x) for x in zip(*((h.tri, h.u, h.v, h.t, h.normal) for h in parts))), d)
 
     def occluded_chunk(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """(N,) bool occlusion traced on the calling thread (see `occluded`); tmax (N,) f32."""

@@ -1,0 +1,45 @@
+"""The item buffer's texel-rank table finds the same patches as the patch index it packs."""
+import numba as nb
+import numpy as np
+import pytest
+
+from patchlight.radiosity import _kernels
+
+
+@nb.njit
+def _patches_at(u, v, tri_uv1, width, height, index):
+    """_patch_at of points (u, v) of triangle 0, one by one."""
+    out = np.empty(u.shape[0], np.int64)
+    for i in range(u.shape[0]):
+        out[i] = _kernels._patch_at(0, u[i], v[i], tri_uv1, width, height, index)
+    return out
+
+
+def _index(covered):
+    index = np.full(covered.shape, -1, np.int32)
+    index[covered] = np.arange(np.count_nonzero(covered))
+    return index
+
+
+@pytest.mark.parametrize("width", [1, 31, 32, 70])
+def test_the_rank_table_finds_every_texel_and_neighbour_as_the_index(width):
+    rng = np.random.default_rng(width)
+    covered = rng.random((9, width)) < 0.3
+    covered[:2] = False  # row 0 sees nothing within a texel (LOST); row 1 falls back to row 2
+    covered[2, ::2] = True
+    covered[5] = True
+    index = _index(covered)
+    tri_uv1 = np.array([[[0, 0], [1, 0], [0, 1]]], np.float32)  # triangle 0: (u, v) is the UV
+    y, x = np.mgrid[:9, :width]
+    u, v = ((x.ravel() + 0.5) / width).astype(np.float32), ((y.ravel() + 0.5) / 9).astype(np.float32)
+    expected = _patches_at(u, v, tri_uv1, width, 9, index)
+    assert np.array_equal(_patches_at(u, v, tri_uv1, width, 9, _kernels.texel_ranks(index)), expected)
+    assert np.array_equal(expected[covered.ravel()], np.arange(np.count_nonzero(covered)))
+    assert np.all(expected[:width] == _kernels.LOST) and np.all(expected[width:2 * width] >= 0)
+
+
+def test_a_rank_table_needs_patch_ids_in_texel_order():
+    index = _index(np.ones((2, 3), bool))
+    index[0, :2] = index[0, 1::-1]
+    with pytest.raises(ValueError, match="texel"):
+        _kernels.texel_ranks(index)
