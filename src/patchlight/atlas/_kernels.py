@@ -264,6 +264,7 @@ def sub_texel_points(rows, texel_x, texel_y, triangle, position, tex, corners, r
     where a point falls past a rim edge or the triangle has no UV area."""
     k_count = n * n
     out = np.empty((rows.shape[0], k_count, 3))
+    across = (np.arange(n) + 0.5) / n  # the sub-texel centres within a texel, texel units
     for r in range(rows.shape[0]):
         p = rows[r]
         t = triangle[p]
@@ -273,13 +274,14 @@ def sub_texel_points(rows, texel_x, texel_y, triangle, position, tex, corners, r
         det = e1x * e2y - e1y * e2x
         flat = abs(det) <= 1e-12
         safe = 1.0 if flat else det
+        rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
         for k in range(k_count):
-            dx = texel_x[p] + (k // n + 0.5) / n - ax
-            dy = texel_y[p] + (k % n + 0.5) / n - ay
+            dx = texel_x[p] + across[k // n] - ax
+            dy = texel_y[p] + across[k % n] - ay
             w1 = (dx * e2y - dy * e2x) / safe
             w2 = (e1x * dy - e1y * dx) / safe
             w0 = 1.0 - w1 - w2
-            if flat or (w0 < 0.0 and rim[t, 1]) or (w1 < 0.0 and rim[t, 2]) or (w2 < 0.0 and rim[t, 0]):
+            if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
                 for a in range(3):
                     out[r, k, a] = position[p, a]
             else:

@@ -118,13 +118,33 @@ def _hash_uniform(key, dim):
 
 
 @nb.njit(cache=True, inline="always")
-def _permutation(n, key, dim):
-    """A pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform)."""
-    perm = np.arange(n)
-    for i in range(n - 1, 0, -1):
+def _shuffle(perm, key, dim):
+    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform)."""
+    for i in range(perm.shape[0]):
+        perm[i] = i
+    for i in range(perm.shape[0] - 1, 0, -1):
         j = int(_hash_uniform(key, dim + i) * (i + 1))
         perm[i], perm[j] = perm[j], perm[i]
-    return perm
+
+
+@nb.njit(cache=True, inline="always")
+def _divided(x, count, inv_count):
+    """x / count, as the product x * inv_count where inv_count = 1 / count > 0 is exact (count
+    a power of two: the same number, without a division; inv_count 0 otherwise)."""
+    return x * inv_count if inv_count > 0.0 else x / count
+
+
+@nb.njit(cache=True, inline="always")
+def _upper_bound(sorted_values, x):
+    """The number of sorted_values (ascending) <= x, by binary search."""
+    lo, hi = 0, sorted_values.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if sorted_values[mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @nb.njit(cache=True, inline="always")
@@ -137,47 +157,51 @@ def power_heuristic(n_a, pdf_a, n_b, pdf_b):
 
 
 @nb.njit(cache=True, nogil=True)
-def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em_two_sided, area,
+def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_normal, em_two_sided,
                  tri_uv1, width, height, index, emission, gather_rays, seed):
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
     and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
-    cumulative share of emitted power; em_tri (M,) scene triangle ids; corners (M, 3, 3);
-    em_normal (M, 3); em_two_sided (M,); area (M,) m^2. Sample j of a texel picks an emitter
-    by power with its stratum of K (a per-texel permutation pairs strata with points), a point
-    uniform on it, and reads the radiance of the emitter's patch there (tri_uv1, index,
-    emission: what the gather sees). Returns origins, dirs (R * K, 3) f32, tmax (R * K,) f32
-    and each ray's incident light if unblocked (R * K, 3) f32: Le cos / (pi p) / K, p the
-    solid-angle pdf, MIS-weighted against `gather_rays` cosine rays (power heuristic).
+    cumulative share of emitted power; density (M,) that share over the emitter's area (per
+    m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
+    (M,). Sample j of a texel picks an emitter by power with its stratum of K (a per-texel
+    permutation pairs strata with points), a point uniform on it, and reads the radiance of
+    the emitter's patch there (tri_uv1, index, emission: what the gather sees).
+    Returns the L rays that can carry light, packed in sample order: ray (L,) i64 sample ids
+    (r * K + j), origins, dirs (L, 3) f32, tmax (L,) f32 and each ray's incident light if
+    unblocked (L, 3) f32: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
+    `gather_rays` cosine rays (power heuristic). The other samples carry none.
     """
     r_count, k_count = points.shape[0], points.shape[1]
     n = r_count * k_count
+    ray = np.empty(n, np.int64)
     origins = np.empty((n, 3), np.float32)
-    dirs = np.zeros((n, 3), np.float32)
-    tmax = np.zeros(n, np.float32)
-    value = np.zeros((n, 3), np.float32)
+    dirs = np.empty((n, 3), np.float32)
+    tmax = np.empty(n, np.float32)
+    value = np.empty((n, 3), np.float32)
+    perm_pick = np.empty(k_count, np.int64)
+    perm_point = np.empty(k_count, np.int64)
+    inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
+    live = 0
     for r in range(r_count):
         p = rows[r]
         key = np.int64(p) * 1000003 + seed
-        perm_pick = _permutation(k_count, key, 0)
-        perm_point = _permutation(k_count, key, k_count)
+        _shuffle(perm_pick, key, 0)
+        _shuffle(perm_point, key, k_count)
         nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
+        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
         for j in range(k_count):
-            i = r * k_count + j
-            ox = points[r, j, 0] + lift[p] * nx
-            oy = points[r, j, 1] + lift[p] * ny
-            oz = points[r, j, 2] + lift[p] * nz
-            origins[i, 0], origins[i, 1], origins[i, 2] = ox, oy, oz
-            pick = (perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j)) / k_count
-            e = min(np.searchsorted(cdf, pick, side="right"), m - 1)
+            ox, oy, oz = points[r, j, 0] + lx, points[r, j, 1] + ly, points[r, j, 2] + lz
+            pick = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
+            e = min(_upper_bound(cdf, pick), m - 1)
             lo = cdf[e - 1] if e > 0 else 0.0
             share = cdf[e] - lo
             if share <= 0.0:
                 continue
             s1 = np.sqrt(min(max((pick - lo) / share, 0.0), 1.0))
-            s2 = (perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1)) / k_count
+            s2 = _divided(perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1), k_count, inv_k)
             bu, bv = s1 * (1.0 - s2), s1 * s2
             bw = 1.0 - bu - bv
             dx = bw * corners[e, 0, 0] + bu * corners[e, 1, 0] + bv * corners[e, 2, 0] - ox
@@ -196,46 +220,29 @@ def emitter_rays(points, normal, lift, rows, cdf, em_tri, corners, em_normal, em
             s = _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
             if s < 0:
                 continue
-            pdf = share / area[e] * dist * dist / cos_l
+            pdf = density[e] * dist * dist / cos_l
             w = power_heuristic(k_count, pdf, gather_rays, cos_r / np.pi)
-            f = cos_r / (np.pi * pdf) * w / k_count
-            dirs[i, 0], dirs[i, 1], dirs[i, 2] = dx, dy, dz
+            f = _divided(cos_r / (np.pi * pdf) * w, k_count, inv_k)
+            ray[live] = r * k_count + j
+            origins[live, 0], origins[live, 1], origins[live, 2] = ox, oy, oz
+            dirs[live, 0], dirs[live, 1], dirs[live, 2] = dx, dy, dz
+            tmax[live] = dist * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
             for a in range(3):
-                value[i, a] = f * emission[s, a]
-            tmax[i] = dist * (1.0 - 1e-4)
-    return origins, dirs, tmax, value
+                value[live, a] = f * emission[s, a]
+            live += 1
+    return ray[:live], origins[:live], dirs[:live], tmax[:live], value[:live]
 
 
 @nb.njit(cache=True, nogil=True)
-def live_rays(origins, dirs, tmax):
-    """The rays of emitter_rays that go somewhere (tmax > 0): their ids (L,) and origins,
-    directions (L, 3) and tmax (L,), packed in order."""
-    live = np.flatnonzero(tmax > 0)
-    o = np.empty((live.shape[0], 3), np.float32)
-    d = np.empty((live.shape[0], 3), np.float32)
-    t = np.empty(live.shape[0], np.float32)
-    for q in range(live.shape[0]):
-        i = live[q]
-        for a in range(3):
-            o[q, a] = origins[i, a]
-            d[q, a] = dirs[i, a]
-        t[q] = tmax[i]
-    return live, o, d, t
-
-
-@nb.njit(cache=True, nogil=True)
-def unblocked_sums(value, live, blocked, k):
-    """(R, 3) f32 per texel, the sum in order of its k rays' values (R * k, 3) but for the
-    rays live[blocked] (emitter_rays' shadow rays that met something)."""
-    lit = np.ones(value.shape[0], np.bool_)
-    for q in range(live.shape[0]):
-        if blocked[q]:
-            lit[live[q]] = False
-    out = np.zeros((value.shape[0] // k, 3), np.float32)
-    for i in range(value.shape[0]):
-        if lit[i]:
+def unblocked_sums(value, ray, blocked, r_count, k):
+    """(R, 3) f32 per texel, the sum in order of the values (L, 3) of emitter_rays' rays
+    `ray` (L,) (sample ids r * k + j) but those `blocked` (L,) (their shadow ray met something)."""
+    out = np.zeros((r_count, 3), np.float32)
+    for q in range(ray.shape[0]):
+        if not blocked[q]:
+            r = ray[q] // k
             for c in range(3):
-                out[i // k, c] += value[i, c]
+                out[r, c] += value[q, c]
     return out
 
 

@@ -131,13 +131,14 @@ def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.
         points = points_of(part)
         k = points.shape[1]
         e = emitters
-        origins, dirs, tmax, value = _kernels.emitter_rays(
-            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.triangles, e.corners, e.normals,
-            e.two_sided, e.area, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
-        live = np.flatnonzero(tmax > 0)
-        value[live[tracer.occluded(origins[live], dirs[live], tmax[live])]] = 0.0
-        dirs = dirs.astype(np.float64).reshape(len(part), k, 3)
-        value = value.astype(np.float64).reshape(len(part), k, 3)
+        ray, origins, live_dirs, tmax, live_value = _kernels.emitter_rays(
+            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.density, e.triangles, e.corners, e.normals,
+            e.two_sided, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
+        live_value[tracer.occluded(origins, live_dirs, tmax)] = 0.0
+        dirs = np.zeros((len(part) * k, 3))
+        value = np.zeros((len(part) * k, 3))
+        dirs[ray], value[ray] = live_dirs, live_value
+        dirs, value = dirs.reshape(len(part), k, 3), value.reshape(len(part), k, 3)
         cos = np.maximum(np.einsum("rka,ra->rk", dirs, normal[part]), MIN_COS)
         sums.add_sh(part, np.pi * value / cos[..., None], dirs)
         sums.add_dominant(part, value, dirs)

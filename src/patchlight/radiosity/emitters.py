@@ -31,17 +31,18 @@ class Emitters:
     """The emissive triangles of a scene, as next-event estimation samples them.
 
     triangles (M,) i32 scene triangle ids; cdf (M,) f64 cumulative share of emitted power;
-    corners (M, 3, 3) f64; normals (M, 3) f64; two_sided (M,) bool; area (M,) f64 m^2.
+    density (M,) f64 each one's share (from cdf) over its area, per m^2; corners (M, 3, 3)
+    f64; normals (M, 3) f64; two_sided (M,) bool.
     Per scene triangle (T,): pdf_area, the density per m^2 of a next-event sample landing on
     it (0 on triangles never sampled); tri_normal (T, 3) f64; tri_two_sided (T,) bool.
     """
 
     triangles: np.ndarray
     cdf: np.ndarray
+    density: np.ndarray
     corners: np.ndarray
     normals: np.ndarray
     two_sided: np.ndarray
-    area: np.ndarray
     pdf_area: np.ndarray
     tri_normal: np.ndarray
     tri_two_sided: np.ndarray
@@ -70,7 +71,8 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
     pdf_area = np.zeros(t)
     pdf_area[triangles] = share / area[triangles]
     two_sided = two_sided_triangles(scene)
-    return Emitters(triangles=triangles, cdf=np.cumsum(share), area=area[triangles].astype(np.float64),
+    cdf = np.cumsum(share)
+    return Emitters(triangles=triangles, cdf=cdf, density=np.diff(cdf, prepend=0.0) / area[triangles],
                     corners=scene.positions[scene.indices[triangles]].astype(np.float64),
                     normals=normal[triangles].astype(np.float64), two_sided=two_sided[triangles],
                     pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
@@ -87,12 +89,12 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
     lift = np.asarray(lift, np.float64)
 
     def chunk(rows):
-        origins, dirs, tmax, value = _kernels.emitter_rays(
-            points_of(rows), normal, lift, rows, e.cdf, e.triangles, e.corners, e.normals, e.two_sided, e.area,
+        points = points_of(rows)
+        ray, origins, dirs, tmax, value = _kernels.emitter_rays(
+            points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
-        live, origins, dirs, tmax = _kernels.live_rays(origins, dirs, tmax)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
-        return _kernels.unblocked_sums(value, live, blocked, len(value) // len(rows))
+        return _kernels.unblocked_sums(value, ray, blocked, len(rows), points.shape[1])
 
     rows = np.arange(len(patches), dtype=np.int64)
     parts = tracer.map(chunk, [rows[s:s + TEXELS_PER_CHUNK] for s in range(0, len(rows), TEXELS_PER_CHUNK)])
