@@ -272,32 +272,44 @@ def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_n
 
 
 @nb.njit(cache=True, nogil=True)
-def pass_light(direct, gathered, inside, rho, emission):
-    """One pass's light from its gathered light G (N, 3) f32: incident I = D + G (0 at texels
-    `inside` geometry), excident B = rho I + E, and the reflected light B - E that the next
-    pass gathers, each (N, 3) f32, in one sweep."""
-    n = direct.shape[0]
-    incident = np.empty((n, 3), np.float32)
-    excident = np.empty((n, 3), np.float32)
-    reflected = np.empty((n, 3), np.float32)
-    for i in range(n):
+def pass_light(direct, gathered, inside, rho, emission, incident, excident, reflected):
+    """One pass's light from its gathered light G (n, 3) f32, written into the (n, 3) f32
+    outputs: incident I = D + G (0 at texels `inside` geometry), excident B = rho I + E,
+    and the reflected light B - E that the next pass gathers, in one sweep."""
+    for i in range(direct.shape[0]):
         for c in range(3):
             light = np.float32(0.0) if inside[i] else direct[i, c] + gathered[i, c]
             incident[i, c] = light
             excident[i, c] = rho[i, c] * light + emission[i, c]
             reflected[i, c] = excident[i, c] - emission[i, c]
-    return incident, excident, reflected
 
 
 @nb.njit(cache=True, nogil=True)
 def largest_relative_change(current, previous, floor):
-    """max |current - previous| / max(current, floor) over (N, 3) f32 arrays, in f32."""
+    """max |current - previous| / max(current, floor) over (n, 3) f32 arrays, in f32."""
     largest = np.float32(0.0)
     for i in range(current.shape[0]):
         for c in range(3):
             change = abs(current[i, c] - previous[i, c]) / max(current[i, c], floor)
             largest = max(largest, change)
     return largest
+
+
+@nb.njit(cache=True, nogil=True)
+def scatter_sum(G, ids, S, P):
+    """G[ids[k]] = S[k] + P[k] for k < len(ids): gathered rows (K, 3) f32 into G (N, 3) f32."""
+    for k in range(ids.shape[0]):
+        for c in range(3):
+            G[ids[k], c] = S[k, c] + P[k, c]
+
+
+TASK_ROWS = 1 << 16  # rows of a sweep one task of the tracer's pool takes
+
+
+def over_spans(run, fn, first: int, last: int) -> list:
+    """fn(start, stop) over rows first..last-1 in spans of TASK_ROWS, as tasks on `run`
+    (Tracer.map); the results in order."""
+    return run(lambda span: fn(*span), [(s, min(s + TASK_ROWS, last)) for s in range(first, last, TASK_ROWS)])
 
 
 @nb.njit(cache=True, nogil=True)
@@ -315,11 +327,10 @@ def weighted_emission(seen, shares, weights, emission):
     return out
 
 
-@nb.njit(cache=True)
-def interpolate_in_order(G, status, targets, neighbours, computed, interpolated, inside):
-    """Fill G (N, 3) in place at every non-computed target, in order, with the mean of its
-    neighbours (K, 4; -1 = none) that already have values; none -> 0. Texels `inside` -> 0."""
-    have = (status == computed) | (status == interpolated)
+@nb.njit(cache=True, nogil=True)
+def interpolate_targets(G, have, status, targets, neighbours, computed):
+    """Fill G (N, 3) in place at every non-computed target (K,) with the mean of its
+    neighbours (K, 4; -1 = none) that `have` (N,) bool values, and mark it in `have`; none -> 0."""
     for k in range(targets.shape[0]):
         t = targets[k]
         if status[t] == computed:
@@ -338,11 +349,56 @@ def interpolate_in_order(G, status, targets, neighbours, computed, interpolated,
             have[t] = True
         else:
             G[t, 0] = G[t, 1] = G[t, 2] = 0.0
-    for i in range(G.shape[0]):
-        if status[i] == inside:
-            G[i, 0] = G[i, 1] = G[i, 2] = 0.0
-    return G
 
+
+@nb.njit(cache=True, inline="always")
+def _ratio(a, b):
+    """The radiosity article's ratio2 of two f32 values: 1 when both are 0, 0 when one is,
+    else min / max (divided in f32)."""
+    if a == 0.0 and b == 0.0:
+        return 1.0
+    hi, lo = max(a, b), min(a, b)
+    return float(np.float32(lo / hi)) if hi > 0.0 else 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def decide_targets(status, G, targets, neighbours, threshold, undecided, computed, interpolated):
+    """Decide the undecided targets (K,) in place in status (N,) i8: interpolated when all
+    their neighbours (K, 2 or 4; -1 = none) are computed or interpolated and each pair
+    (0-1, 2-3) has a ratio above `threshold` in every channel of G (N, 3) f32, else
+    computed. Returns the targets now computed, in order. A step's neighbours are never its
+    own targets, so spans of one step may be decided in any order."""
+    compute = np.empty(targets.shape[0], np.int64)
+    count = 0
+    m = neighbours.shape[1]
+    for k in range(targets.shape[0]):
+        t = targets[k]
+        if status[t] != undecided:
+            continue
+        agree = True
+        for j in range(m):
+            n = neighbours[k, j]
+            if n < 0 or (status[n] != computed and status[n] != interpolated):
+                agree = False
+        for j in range(0, m, 2):
+            for c in range(3):
+                if agree and not _ratio(G[neighbours[k, j], c], G[neighbours[k, j + 1], c]) > threshold:
+                    agree = False
+        if agree:
+            status[t] = interpolated
+        else:
+            status[t] = computed
+            compute[count] = t
+            count += 1
+    return compute[:count].copy()
+
+
+@nb.njit(cache=True, nogil=True)
+def zero_where(G, status, code):
+    """G[i] = 0 (G (n, 3)) wherever status[i] == code."""
+    for i in range(G.shape[0]):
+        if status[i] == code:
+            G[i, 0] = G[i, 1] = G[i, 2] = 0.0
 
 
 @nb.njit(cache=True, nogil=True)

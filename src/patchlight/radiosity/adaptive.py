@@ -82,34 +82,21 @@ def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
     return grid, phases
 
 
-def ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The article's ratio2, elementwise: 1 when both are 0, 0 when one is, else min/max."""
-    hi, lo = np.maximum(a, b), np.minimum(a, b)
-    out = np.divide(lo, hi, out=np.zeros_like(hi, dtype=np.float64), where=hi > 0)
-    return np.where((a == 0) & (b == 0), 1.0, out)
+def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise: float, run) -> np.ndarray:
+    """Decide every target of `step` in place in `status` (`_kernels.decide_targets`, in
+    tasks on `run`, Tracer.map); returns the ids to compute now, in the step's order.
 
-
-def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise: float = 0.0) -> np.ndarray:
-    """Decide every target of `step` in place in `status`; returns the ids to compute now.
-
-    G: (N, 3) current gathered light of every decided patch. noise: the relative standard
-    deviation of one gather (`gather_noise`); two gathers of the same light differ by up to
+    G: (N, 3) f32 current gathered light of every decided patch. A target is interpolated
+    when its neighbours' ratio (1 when both are 0, 0 when one is, else min / max) passes
+    threshold = accuracy ** spacing in every channel. noise: the relative standard deviation
+    of one gather (`gather_noise`); two gathers of the same light differ by up to
     NOISE_SIGMAS sqrt(2) of it, so the threshold never asks for more than that (a neighbour
     pair that differs only by noise is interpolated: the mean has less noise than a gather)."""
-    nbs = step.neighbours
-    nb_status = np.where(nbs >= 0, status[np.maximum(nbs, 0)], -1)
-    usable = np.all((nb_status == COMPUTED) | (nb_status == INTERPOLATED), axis=1)
     threshold = min(accuracy ** step.spacing, 1.0 - NOISE_SIGMAS * np.sqrt(2.0) * noise)
-    g = G[np.maximum(nbs, 0)]  # (K, m, 3)
-    pairs = [(0, 1)] if nbs.shape[1] == 2 else [(0, 1), (2, 3)]
-    similar = np.ones(len(nbs), bool)
-    for i, j in pairs:
-        similar &= np.all(ratio(g[:, i], g[:, j]) > threshold, axis=1)
-    pending = status[step.targets] == UNDECIDED
-    status[step.targets[pending & usable & similar]] = INTERPOLATED
-    compute = step.targets[pending & ~(usable & similar)]
-    status[compute] = COMPUTED
-    return compute
+    parts = _kernels.over_spans(run, lambda a, b: _kernels.decide_targets(
+        status, G, step.targets[a:b], step.neighbours[a:b], threshold, UNDECIDED, COMPUTED, INTERPOLATED),
+        0, len(step.targets))
+    return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
 def reopen(status: np.ndarray) -> None:
@@ -117,21 +104,31 @@ def reopen(status: np.ndarray) -> None:
     status[status == INTERPOLATED] = UNDECIDED
 
 
-def flatten(phases: list[list[Step]]) -> tuple[np.ndarray, np.ndarray]:
-    """Every step's targets (K,) in the sampler's order, with neighbours (K, 4), -1 padded."""
+def flatten(phases: list[list[Step]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every step's targets (K,) in the sampler's order, with neighbours (K, 4), -1 padded,
+    and where each step begins (steps + 1,): the sampler's interpolation order."""
     steps = [step for phase in phases for step in phase]
+    bounds = np.cumsum([0] + [len(s.targets) for s in steps])
     if not steps:
-        return np.zeros(0, np.int64), np.zeros((0, 4), np.int64)
+        return np.zeros(0, np.int64), np.zeros((0, 4), np.int64), bounds
     pad = [np.pad(s.neighbours, ((0, 0), (0, 4 - s.neighbours.shape[1])), constant_values=-1) for s in steps]
-    return np.concatenate([s.targets for s in steps]), np.concatenate(pad)
+    return np.concatenate([s.targets for s in steps]), np.concatenate(pad), bounds
 
 
-def interpolate(G: np.ndarray, status: np.ndarray, order: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+def interpolate(G: np.ndarray, status: np.ndarray, order: tuple[np.ndarray, np.ndarray, np.ndarray],
+                run) -> np.ndarray:
     """Fill G (N, 3) in place at interpolated texels, in the sampler's order (`flatten`), each
     the mean of its neighbours. Undecided texels get the mean of whatever neighbours have
-    values (a provisional estimate used while the sampler is still deciding)."""
-    targets, neighbours = order
-    return _kernels.interpolate_in_order(G, status, targets, neighbours, COMPUTED, INTERPOLATED, INSIDE)
+    values (a provisional estimate used while the sampler is still deciding); texels inside
+    geometry end at 0. Steps run one after another, each in tasks on `run` (Tracer.map):
+    a step's neighbours all belong to earlier steps, so its targets are independent."""
+    targets, neighbours, bounds = order
+    have = (status == COMPUTED) | (status == INTERPOLATED)
+    for first, last in zip(bounds[:-1], bounds[1:]):
+        _kernels.over_spans(run, lambda a, b: _kernels.interpolate_targets(G, have, status, targets[a:b],
+                                                                           neighbours[a:b], COMPUTED), first, last)
+    _kernels.over_spans(run, lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G))
+    return G
 
 
 def debug_image(p: Patches, status: np.ndarray) -> np.ndarray:

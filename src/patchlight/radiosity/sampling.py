@@ -45,7 +45,8 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
                                  passes, max(settings.tolerance, REFINE_TOLERANCE), B)
                 B, G = solution.excident, solution.gathered
                 for step in phase:
-                    _compute(ff, adaptive.decide(step, status, G, accuracy, noise), status, advance)
+                    rows = adaptive.decide(step, status, G, accuracy, noise, ff.gatherer.tracer.map)
+                    _compute(ff, rows, status, advance)
     return status, order
 
 

@@ -30,8 +30,8 @@ class FormFactors:
     gatherer: Gatherer
     budget: int
     kept: bool = True
-    ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    S: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    id_parts: list = field(default_factory=list)  # ids and S block by block, joined when read
+    S_parts: list = field(default_factory=list)
     blocks: list = field(default_factory=list)
     lost_rays: int = 0
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
@@ -52,8 +52,8 @@ class FormFactors:
     def _add_block(self, rows: np.ndarray, progress) -> np.ndarray:
         g = self.gatherer.gather(rows, progress)
         self.rays += len(rows) * self.gatherer.rays_per_patch
-        self.ids = np.concatenate([self.ids, rows])
-        self.S = np.concatenate([self.S, g.S])
+        self.id_parts.append(rows)
+        self.S_parts.append(g.S)
         self.lost_rays += g.lost
         if self.kept and self.nbytes + _csr_bytes(g.F) <= self.budget:
             self.blocks.append(PanelBlock.of(g.F))
@@ -70,6 +70,16 @@ class FormFactors:
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
         return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), self.blocks))
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(C,) the computed patches, in the order of F's rows."""
+        return _joined(self.id_parts, np.zeros(0, np.int64))
+
+    @property
+    def S(self) -> np.ndarray:
+        """(C, 3) f32 their constant terms."""
+        return _joined(self.S_parts, np.zeros((0, 3), np.float32))
 
     @property
     def nnz(self) -> int:
@@ -105,6 +115,13 @@ class PanelBlock:
         return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
 
 
+def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
+    """The parts concatenated, kept in `parts` as its one part: joined once, not block by block."""
+    if len(parts) != 1:
+        parts[:] = [np.concatenate(parts) if parts else empty]
+    return parts[0]
+
+
 def _csr_bytes(F: sp.csr_matrix) -> int:
     return F.data.nbytes + F.indices.nbytes + F.indptr.nbytes
 
@@ -119,34 +136,40 @@ class Solution:
     changes: list[float]
 
 
-def gathered_light(ff: FormFactors, reflected: np.ndarray, status: np.ndarray, order) -> np.ndarray:
-    """G (N, 3) = S + F (B - E) at computed patches, interpolated elsewhere: the gather's
-    emitted light is in S with the sky (its MIS share beside the direct stage's), F carries
-    the reflected light rho I."""
-    G = np.zeros_like(reflected)
-    G[ff.ids] = ff.S + ff.product(reflected)
-    return adaptive.interpolate(G, status, order)
+def gathered_light(ff: FormFactors, reflected: np.ndarray, status: np.ndarray, order, G: np.ndarray) -> np.ndarray:
+    """Fill G (N, 3) f32 in place with S + F (B - E) at computed patches, interpolated
+    elsewhere, and return it: the gather's emitted light is in S with the sky (its MIS share
+    beside the direct stage's), F carries the reflected light rho I. Every patch is computed,
+    a target of the sampler or inside geometry (0), so a G that starts at 0 is all written."""
+    run = ff.gatherer.tracer.map
+    ids, S, product = ff.ids, ff.S, ff.product(reflected)
+    _kernels.over_spans(run, lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
+    return adaptive.interpolate(G, status, order, run)
 
 
 def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray,
           status: np.ndarray, order, passes: int, tolerance: float, B0: np.ndarray | None = None,
           on_pass=None) -> Solution:
     """Run passes until the relative change still to come (`change_to_come`) is below
-    `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass."""
+    `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass (I is
+    overwritten two passes later: keep a copy). Every sweep runs in tasks on both cores."""
+    run = ff.gatherer.tracer.map
     inside = status == adaptive.INSIDE
-    B = emission.copy() if B0 is None else B0
+    B = (emission if B0 is None else B0).astype(np.float32)  # a copy: B0 stays as it was
     reflected = B - emission
-    previous, changes = None, []
-    I = G = np.zeros_like(direct)
+    G = np.zeros_like(B)
+    I, previous = np.zeros_like(B), np.empty_like(B)
+    changes = []
     for k in range(1, passes + 1):
-        G = gathered_light(ff, reflected, status, order)
-        I, B, reflected = _kernels.pass_light(direct, G, inside, rho, emission)
-        changes.append(1.0 if previous is None else relative_change(I, previous))
+        I, previous = previous, I  # this pass writes over the one before the last
+        gathered_light(ff, reflected, status, order, G)
+        _kernels.over_spans(run, lambda a, b: _kernels.pass_light(
+            direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], B[a:b], reflected[a:b]), 0, len(B))
+        changes.append(1.0 if k == 1 else relative_change(I, previous, run))
         if on_pass is not None:
             on_pass(k, changes[-1], I)
         if change_to_come(changes) < tolerance:
             break
-        previous = I
     return Solution(I, B, G, changes)
 
 
@@ -167,8 +190,9 @@ def change_to_come(changes: list[float]) -> float:
     return float("inf") if r >= 1.0 else real[-1] * r / (1.0 - r)
 
 
-def relative_change(current: np.ndarray, previous: np.ndarray) -> float:
+def relative_change(current: np.ndarray, previous: np.ndarray, run) -> float:
     """Largest per-texel change |I_k - I_k-1| / I_k, over texels brighter than a hundredth of
-    the mean (so that nearly black texels' noise does not decide)."""
-    floor = 1e-2 * float(current.mean()) + 1e-30
-    return float(_kernels.largest_relative_change(current, previous, np.float32(floor)))
+    the mean (so that nearly black texels' noise does not decide); in tasks on `run`."""
+    floor = np.float32(1e-2 * float(current.mean()) + 1e-30)
+    return float(max(_kernels.over_spans(run, lambda a, b: _kernels.largest_relative_change(
+        current[a:b], previous[a:b], floor), 0, len(current)), default=0.0))

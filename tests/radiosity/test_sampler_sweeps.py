@@ -1,0 +1,84 @@
+"""The sampler's sweeps run in spans on the tracer's pool: the same answer as one sequential
+sweep in the sampler's order, whichever order the spans run in."""
+import numpy as np
+import pytest
+
+from patchlight.bake import bake
+from patchlight.config import BakeSettings
+from patchlight.radiosity import _kernels, adaptive
+from patchlight.scene import load_scene
+
+
+@pytest.fixture(scope="module")
+def plan():
+    patches = bake(load_scene("cornell"), BakeSettings(resolution=48, passes=1)).patches
+    grid, phases = adaptive.sampler_plan(patches)
+    return len(patches), grid, phases
+
+
+@pytest.fixture
+def backwards(monkeypatch):
+    """A pool that runs small spans last first."""
+    monkeypatch.setattr(_kernels, "TASK_ROWS", 7)
+    return lambda fn, items: [fn(item) for item in items[::-1]][::-1]
+
+
+def _light(n, rng):
+    G = rng.random((n, 3), dtype=np.float32)
+    G[rng.random(n) < 0.1] = 0.0                 # dark texels: ratio 1 between two, 0 beside light
+    G[rng.random(n) < 0.3] = G[0]                # neighbours that agree exactly
+    return G
+
+
+def _decide_reference(step, status, G, threshold):
+    """The sampler's rule, one target after another."""
+    compute = []
+    for t, nbs in zip(step.targets, step.neighbours):
+        if status[t] != adaptive.UNDECIDED:
+            continue
+        usable = all(n >= 0 and status[n] in (adaptive.COMPUTED, adaptive.INTERPOLATED) for n in nbs)
+        similar = True
+        for i in range(0, len(nbs), 2):
+            a, b = G[nbs[i]], G[nbs[i + 1]]
+            for c in range(3):
+                hi, lo = max(a[c], b[c]), min(a[c], b[c])
+                ratio = 1.0 if a[c] == 0 and b[c] == 0 else (float(np.float32(lo / hi)) if hi > 0 else 0.0)
+                similar &= ratio > threshold
+        status[t] = adaptive.INTERPOLATED if usable and similar else adaptive.COMPUTED
+        if not (usable and similar):
+            compute.append(t)
+    return np.array(compute, np.int64)
+
+
+def test_decide_in_spans_equals_one_target_after_another(plan, backwards):
+    n, grid, phases = plan
+    rng = np.random.default_rng(5)
+    G = _light(n, rng)
+    status = np.zeros(n, np.int8)
+    status[grid] = rng.choice([adaptive.COMPUTED, adaptive.INSIDE], len(grid), p=[0.9, 0.1])
+    for phase in phases:
+        for step in phase:
+            expected = status.copy()
+            want = _decide_reference(step, expected, G, 0.5 ** step.spacing)
+            got = adaptive.decide(step, status, G, 0.5, 0.0, backwards)
+            assert len(want) > 0 and len(want) < len(step.targets)
+            np.testing.assert_array_equal(got, want)
+            np.testing.assert_array_equal(status, expected)
+
+
+def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
+    n, grid, phases = plan
+    rng = np.random.default_rng(6)
+    status = rng.choice([adaptive.COMPUTED, adaptive.INTERPOLATED, adaptive.UNDECIDED, adaptive.INSIDE], n,
+                        p=[0.3, 0.4, 0.2, 0.1]).astype(np.int8)
+    order = adaptive.flatten(phases)
+    G = _light(n, rng)
+    expected = G.copy()
+    have = (status == adaptive.COMPUTED) | (status == adaptive.INTERPOLATED)
+    for t, nbs in zip(*order[:2]):
+        if status[t] != adaptive.COMPUTED:
+            valued = [expected[m].astype(np.float64) for m in nbs if m >= 0 and have[m]]
+            expected[t] = np.mean(valued, axis=0) if valued else 0.0
+            have[t] |= bool(valued)
+    expected[status == adaptive.INSIDE] = 0.0
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, backwards), expected)
