@@ -246,6 +246,92 @@ def unblocked_sums(value, ray, blocked, r_count, k):
     return out
 
 
+@nb.njit(cache=True, inline="always")
+def _sun_deal(s_count, k):
+    """The point (J,) and disc direction (J,) of each of a texel's J = max(S, K) sun rays:
+    ray j leaves point j % K along direction (j + j // S) % S (a Latin square: no column of
+    points shares one; a point takes several directions when J > K)."""
+    j = np.arange(max(s_count, k))
+    return j % k, (j + j // s_count) % s_count
+
+
+@nb.njit(cache=True, nogil=True)
+def sun_rays(origins, cos, dirs):
+    """Shadow rays towards a sun's disc of S directions dirs (S, 3) f64 from K points per
+    texel, origins (N, K, 3) f64, dealt as `_sun_deal` says; cos (N, S) f64 each texel's
+    normal . direction. Returns the rays of directions in front of their texel (cos > 0), in
+    (texel, j) order: ray (L,) i64 ids (texel * J + j), origins and dirs (L, 3) f32."""
+    n, k, s_count = origins.shape[0], origins.shape[1], dirs.shape[0]
+    point, direction = _sun_deal(s_count, k)
+    j_count = point.shape[0]
+    ray = np.empty(n * j_count, np.int64)
+    out_origins = np.empty((n * j_count, 3), np.float32)
+    out_dirs = np.empty((n * j_count, 3), np.float32)
+    live = 0
+    for i in range(n):
+        for j in range(j_count):
+            s = direction[j]
+            if cos[i, s] > 0.0:
+                ray[live] = i * j_count + j
+                for a in range(3):
+                    out_origins[live, a] = origins[i, point[j], a]
+                    out_dirs[live, a] = dirs[s, a]
+                live += 1
+    return ray[:live], out_origins[:live], out_dirs[:live]
+
+
+@nb.njit(cache=True, nogil=True)
+def add_sun_light(total, cos, ray, blocked, light):
+    """Add to total (N, K, 3) f64 a sun's light (3,) at each point: the mean over the point's
+    sun_rays of cos where the ray is not `blocked` (L,), times light / pi. cos (N, S)."""
+    n, k = total.shape[0], total.shape[1]
+    point, direction = _sun_deal(cos.shape[1], k)
+    j_count = point.shape[0]
+    visible = np.zeros((n, k))
+    for q in range(ray.shape[0]):
+        if not blocked[q]:
+            i = ray[q] // j_count
+            j = ray[q] - i * j_count
+            visible[i, point[j]] += cos[i, direction[j]]
+    count = np.bincount(point)  # each point's rays
+    for i in range(n):
+        for p in range(k):
+            mean = visible[i, p] / count[p]
+            for c in range(3):
+                total[i, p, c] += mean * light[c] / np.pi
+
+
+@nb.njit(cache=True, nogil=True)
+def mean_over_points(values):
+    """(R, 3) f64 the mean of values (R, K, 3) over its K points, summed in order."""
+    r_count, k = values.shape[0], values.shape[1]
+    out = np.empty((r_count, 3))
+    for r in range(r_count):
+        for c in range(3):
+            total = values[r, 0, c]
+            for p in range(1, k):
+                total += values[r, p, c]
+            out[r, c] = total / k
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def points_disagree(values, spread):
+    """(R,) bool: texels whose K points' values (R, K, 3) spread over more than `spread`
+    of their largest in some channel (max - min > spread max)."""
+    r_count, k = values.shape[0], values.shape[1]
+    out = np.zeros(r_count, np.bool_)
+    for r in range(r_count):
+        for c in range(3):
+            hi = lo = values[r, 0, c]
+            for p in range(1, k):
+                hi = max(hi, values[r, p, c])
+                lo = min(lo, values[r, p, c])
+            if hi - lo > spread * hi:
+                out[r] = True
+    return out
+
+
 @nb.njit(cache=True, nogil=True)
 def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_normal, two_sided, nee_samples):
     """(R * D,) f32: the share of its emission each gather ray that hits an emitting patch

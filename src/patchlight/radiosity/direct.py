@@ -10,12 +10,15 @@ KHR_lights_punctual. Point and spot lights use the runtime's own functions
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..atlas.patches import Patches
 from ..scene.model import Light
 from ..rays.tracer import Tracer
 from ..shading.lights import from_scene_light, incident_light
+from . import _kernels
 from .hemicube import concentric_disk
 
 REFINE_GRIDS = (8, 16)     # points per texel axis after the first look, where the points disagree
@@ -41,36 +44,46 @@ def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
     return dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
 
 
-def sun_light(origins, normals, light: Light, tracer: Tracer, angle: float, samples: int) -> np.ndarray:
-    """(N, K, 3) incident light from a directional light with ray-traced (soft) shadows at each
-    of K points per texel, shadow rays leaving from origins (N, K, 3), all in one tracer call
-    on the calling thread. The sun's disc directions are dealt out over the points: point k
-    takes directions k, k + K, ..., or one direction each when there are more points than
-    directions."""
-    dirs = _sun_directions(light, angle, samples)
-    n, k = origins.shape[:2]
-    j = np.arange(max(len(dirs), k))
-    ray_dirs = dirs[(j + j // len(dirs)) % len(dirs)]  # a Latin square: no column of points shares one
-    cos = np.stack([normals @ d for d in ray_dirs], axis=1)  # (N, J)
-    texel, ray = np.nonzero(cos > 0)
-    blocked = np.ones(cos.shape, bool)
-    blocked[texel, ray] = tracer.occluded_chunk(origins[texel, ray % k], ray_dirs[ray],
-                                                np.full(len(ray), 1e30, np.float32))
-    seen = np.where(blocked, 0.0, cos)
-    visible_cos = np.zeros((n, k))
-    for i in j:
-        visible_cos[:, i % k] += seen[:, i]
-    count = np.bincount(j % k, minlength=k)
-    return (visible_cos / count)[..., None] * light.radiometric / np.pi
+@dataclass
+class _Sun:
+    """A directional light ready to trace: directions (S, 3) f64 towards its disc (`_sun_directions`)
+    and light (3,) f64, its colour x irradiance Es."""
+
+    directions: np.ndarray
+    light: np.ndarray
 
 
-def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff: str) -> np.ndarray:
-    """(N, K, 3) incident light from a point or spot light with ray-traced shadows at each of
-    the K points per texel of points (N, K, 3), all in one tracer call on the calling thread.
-    The light is evaluated at the points themselves; shadow rays leave from `origins`
-    (N, K, 3), the points lifted. The falloff and cone are the runtime models' own
-    (shading.lights, the NumPy twin of the GLSL), so baked and real-time light agree."""
-    lamp = from_scene_light(light, falloff, f"light {light.name or light.kind!r}")
+def _sources(lights: list[Light], falloff: str, sun_angle: float | None, sun_samples: int) -> list:
+    """Each light ready to trace, made once per stage: a `_Sun`, or a point or spot light as the
+    runtime's own model (shading.lights.PunctualLight)."""
+    sources = []
+    for light in lights:
+        if light.kind == "directional":
+            angle = light.angle if sun_angle is None else sun_angle
+            sources.append(_Sun(_sun_directions(light, angle, sun_samples), light.radiometric.astype(np.float64)))
+        else:
+            sources.append(from_scene_light(light, falloff, f"light {light.name or light.kind!r}"))
+    return sources
+
+
+def sun_light(origins, normals, sun: _Sun, tracer: Tracer, total: np.ndarray) -> None:
+    """Add to total (N, K, 3) the incident light from a directional light with ray-traced
+    (soft) shadows at each of K points per texel, shadow rays leaving from origins (N, K, 3),
+    all in one tracer call on the calling thread. The sun's disc directions are dealt out over
+    the points (`_kernels.sun_rays`)."""
+    cos = np.stack([normals @ d for d in sun.directions], axis=1)  # (N, S)
+    ray, ray_origins, ray_dirs = _kernels.sun_rays(origins, cos, sun.directions)
+    blocked = tracer.occluded_chunk(ray_origins, ray_dirs, np.full(len(ray), 1e30, np.float32))
+    _kernels.add_sun_light(total, cos, ray, blocked, sun.light)
+
+
+def local_light(points, origins, normals, lamp, tracer: Tracer) -> np.ndarray:
+    """(N, K, 3) incident light from a point or spot light `lamp` (shading.lights.PunctualLight)
+    with ray-traced shadows at each of the K points per texel of points (N, K, 3), all in one
+    tracer call on the calling thread. The light is evaluated at the points themselves; shadow
+    rays leave from `origins` (N, K, 3), the points lifted. The falloff and cone are the
+    runtime models' own (shading.lights, the NumPy twin of the GLSL), so baked and real-time
+    light agree."""
     strength = np.zeros(points.shape[:2] + (3,))
     for k in range(points.shape[1]):
         L, I = incident_light(lamp, points[:, k])
@@ -85,23 +98,20 @@ def local_light(points, origins, normals, light: Light, tracer: Tracer, falloff:
     return value
 
 
-def point_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,
-                falloff: str = "inverse-square", sun_angle: float | None = None,
-                sun_samples: int = 16, lift=0.0) -> np.ndarray:
-    """(N, K, 3) incident light from every light at each of K points per texel, points
-    (N, K, 3) with unit normals (N, 3) per texel; see `direct_light`. Traced on the calling
-    thread (callers spread chunks of texels over the tracer's threads, `_over_chunks`)."""
+def point_light(points: np.ndarray, normals: np.ndarray, sources: list, tracer: Tracer, lift=0.0) -> np.ndarray:
+    """(N, K, 3) incident light from every light of `sources` (`_sources`) at each of K points
+    per texel, points (N, K, 3) with unit normals (N, 3) per texel; see `direct_light`. Traced
+    on the calling thread (callers spread chunks of texels over the tracer's threads, `_over_chunks`)."""
     points = np.asarray(points, np.float64)
     normals = np.asarray(normals, np.float64)
     lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))[:, None, None]
     origins = points + lift * normals[:, None]
     total = np.zeros(points.shape[:2] + (3,))
-    for light in lights:
-        if light.kind == "directional":
-            angle = light.angle if sun_angle is None else sun_angle
-            total += sun_light(origins, normals, light, tracer, angle, sun_samples)
+    for source in sources:
+        if isinstance(source, _Sun):
+            sun_light(origins, normals, source, tracer, total)
         else:
-            total += local_light(points, origins, normals, light, tracer, falloff)
+            total += local_light(points, origins, normals, source, tracer)
     return total
 
 
@@ -124,10 +134,11 @@ def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], t
         points = points[:, None, :]
     normals = np.asarray(normals, np.float64)
     lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))
+    sources = _sources(lights, falloff, sun_angle, sun_samples)
 
     def chunk(rows):
-        return point_light(points[rows], normals[rows], lights, tracer, falloff, sun_angle, sun_samples,
-                           lift[rows]).mean(axis=1).astype(np.float32)
+        values = point_light(points[rows], normals[rows], sources, tracer, lift[rows])
+        return _kernels.mean_over_points(values).astype(np.float32)
 
     parts = _over_chunks(tracer, chunk, np.arange(len(points)), points.shape[1])
     return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
@@ -146,6 +157,7 @@ def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer:
     texel's area, to within the finest grid's resolution. Chunks of texels run on the
     tracer's threads, points made and traced on each."""
     lift = np.broadcast_to(np.asarray(lift, np.float32), (len(patches),))
+    sources = _sources(lights, falloff, sun_angle, sun_samples)
     rows = np.arange(len(patches))
     total = np.zeros((len(patches), 3), np.float32)
     for n in (first, *REFINE_GRIDS):
@@ -153,22 +165,14 @@ def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer:
             break
 
         def chunk(part, n=n):
-            values = point_light(points_of(n, part), patches.normal[part], lights, tracer, falloff, sun_angle,
-                                 sun_samples, lift[part])
-            return values.mean(axis=1), _disagree(values)
+            values = point_light(points_of(n, part), patches.normal[part], sources, tracer, lift[part])
+            return _kernels.mean_over_points(values), _kernels.points_disagree(values, REFINE_SPREAD)
 
         means, disagree = zip(*_over_chunks(tracer, chunk, rows, n * n))
         total[rows] = np.concatenate(means)
         rows = rows[np.concatenate(disagree)]
         rows = _with_neighbours(patches, rows) if n == first else rows
     return total
-
-
-def _disagree(values: np.ndarray) -> np.ndarray:
-    """(R,) bool: texels whose points' light (R, K, 3) spreads over more than
-    REFINE_SPREAD of its largest value in some channel."""
-    hi, lo = values.max(axis=1), values.min(axis=1)
-    return np.any(hi - lo > REFINE_SPREAD * hi, axis=1)
 
 
 def _with_neighbours(patches: Patches, rows: np.ndarray) -> np.ndarray:
