@@ -495,13 +495,13 @@ def item_buffer_rows(seen, weights, sky_radiance):
     per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
     Returns CSR (indptr (R+1,), indices, data; columns in first-seen order, duplicates
     summed), the sky term (R, 3) and the share of each patch's rays that hit back faces (R,).
-    Duplicates meet in a hash table of 2 D slots, cleared per row: scratch space and work
-    per ray stay constant however large the lightmap.
+    Duplicates meet in a hash table of 4 D slots (a quarter full at most: few collisions),
+    cleared per row: scratch space and work per ray stay constant however large the lightmap.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
     size = 1
-    while size < 2 * d:
+    while size < 4 * d:
         size *= 2
     keys = np.empty(size, np.int32)     # patch id in each slot, -1 = free
     slots = np.empty(size, np.int64)    # where that patch's entry is in indices / data

@@ -43,13 +43,15 @@ def hemisphere_rays(position, normal, offset, rows, local_dirs, angles):
         n = normal[p].astype(np.float64)
         t, s = _basis(n)
         c, si = np.cos(angles[k]), np.sin(angles[k])
-        tr = c * t + si * s
-        sr = -si * t + c * s
-        o = position[p] + offset[p] * normal[p]
+        tx, ty, tz = c * t[0] + si * s[0], c * t[1] + si * s[1], c * t[2] + si * s[2]  # t, s turned
+        sx, sy, sz = -si * t[0] + c * s[0], -si * t[1] + c * s[1], -si * t[2] + c * s[2]
+        ox, oy, oz = (position[p, 0] + offset[p] * normal[p, 0], position[p, 1] + offset[p] * normal[p, 1],
+                      position[p, 2] + offset[p] * normal[p, 2])
         for j in range(d):
             x, y, z = local_dirs[j, 0], local_dirs[j, 1], local_dirs[j, 2]
             i = k * d + j
-            for a in range(3):
-                origins[i, a] = o[a]
-                dirs[i, a] = x * tr[a] + y * sr[a] + z * n[a]
+            origins[i, 0], origins[i, 1], origins[i, 2] = ox, oy, oz
+            dirs[i, 0] = x * tx + y * sx + z * n[0]
+            dirs[i, 1] = x * ty + y * sy + z * n[1]
+            dirs[i, 2] = x * tz + y * sz + z * n[2]
     return origins, dirs
