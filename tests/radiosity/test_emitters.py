@@ -67,6 +67,13 @@ def test_a_tiny_bright_panel_lights_every_floor_texel_within_a_few_percent():
     assert np.median(np.abs(gathered / exact - 1)) > 5 * np.median(error)
 
 
+
+def test_a_tiny_bright_panel_is_as_close_with_a_sample_count_not_a_power_of_two():
+    """25 samples (5 x 5): the strata and the weights divide by K, not multiply by 1 / K."""
+    baked, exact = _panel_over_floor(25)
+    error = np.abs(baked / exact - 1)
+    assert np.median(error) < 0.02 and np.percentile(error, 99) < 0.06
+
 def _facade(cells: int) -> tuple:
     """A 1 x 1 m emissive wall over a 2 x 1 m grey floor, the wall made of cells x cells quads."""
     b = SceneBuilder()
