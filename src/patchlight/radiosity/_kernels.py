@@ -27,7 +27,7 @@ def texel_ranks(index: np.ndarray) -> np.ndarray:
     height, width = index.shape
     covered = np.zeros((height, -(-width // TEXEL_BLOCK) * TEXEL_BLOCK), bool)
     covered[:, :width] = index >= 0
-    if not np.array_equal(index[covered[:, :width]], np.arange(np.count_nonzero(covered))):
+    if not np.array_equal(index[covered[:, :width]], np.arange(np.count_nonzero(covered), dtype=np.int32)):
         raise ValueError("patch ids do not follow their texels in (y, x) order")
     blocks = covered.reshape(height, -1, TEXEL_BLOCK)
     bits = np.packbits(blocks, axis=2, bitorder="little").view("<u4")[..., 0].astype(np.uint64)
