@@ -371,6 +371,15 @@ def pass_light(direct, gathered, inside, rho, emission, incident, excident, refl
 
 
 @nb.njit(cache=True, nogil=True)
+def excident_and_reflected(start, emission, excident, reflected):
+    """The outputs (n, 3) f32: excident = start, reflected = start - emission."""
+    for i in range(start.shape[0]):
+        for c in range(3):
+            excident[i, c] = start[i, c]
+            reflected[i, c] = start[i, c] - emission[i, c]
+
+
+@nb.njit(cache=True, nogil=True)
 def largest_relative_change(current, previous, floor):
     """max |current - previous| / max(current, floor) over (n, 3) f32 arrays, in f32."""
     largest = np.float32(0.0)

@@ -155,10 +155,13 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     overwritten two passes later: keep a copy). Every sweep runs in tasks on both cores."""
     run = ff.gatherer.tracer.map
     inside = status == adaptive.INSIDE
-    B = (emission if B0 is None else B0).astype(np.float32)  # a copy: B0 stays as it was
-    reflected = B - emission
-    G = np.zeros_like(B)
-    I, previous = np.zeros_like(B), np.empty_like(B)
+    # fresh (N, 3) buffers, their pages first touched by the pool's tasks (np.zeros_like or a
+    # copy would write them all here): B starts as B0 (kept as it was) and reflected as B0 - E
+    B, reflected, previous = (np.empty(emission.shape, np.float32) for _ in range(3))
+    G, I = np.zeros(B.shape, np.float32), np.zeros(B.shape, np.float32)
+    start = emission if B0 is None else B0
+    _kernels.over_spans(run, lambda a, b: _kernels.excident_and_reflected(
+        start[a:b], emission[a:b], B[a:b], reflected[a:b]), 0, len(B))
     changes = []
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
