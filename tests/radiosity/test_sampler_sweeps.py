@@ -75,7 +75,7 @@ def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
     G = _light(n, rng)
     expected = G.copy()
     have = (status == adaptive.COMPUTED) | (status == adaptive.INTERPOLATED)
-    for t, nbs in zip(*order[:2]):
+    for t, nbs in ((t, nbs) for step in order for t, nbs in zip(step.targets, step.neighbours)):
         if status[t] != adaptive.COMPUTED:
             valued = [expected[m].astype(np.float64) for m in nbs if m >= 0 and have[m]]
             expected[t] = np.mean(valued, axis=0) if valued else 0.0

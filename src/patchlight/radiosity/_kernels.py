@@ -425,7 +425,7 @@ def weighted_emission(seen, shares, weights, emission):
 @nb.njit(cache=True, nogil=True)
 def interpolate_targets(G, have, status, targets, neighbours, computed):
     """Fill G (N, 3) in place at every non-computed target (K,) with the mean of its
-    neighbours (K, 4; -1 = none) that `have` (N,) bool values, and mark it in `have`; none -> 0."""
+    neighbours (K, 2 or 4; -1 = none) that `have` (N,) bool values, and mark it in `have`; none -> 0."""
     for k in range(targets.shape[0]):
         t = targets[k]
         if status[t] == computed:

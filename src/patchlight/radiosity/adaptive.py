@@ -54,9 +54,8 @@ def _ids_at(p: Patches, y: np.ndarray, x: np.ndarray) -> np.ndarray:
     return ids
 
 
-def _step(p: Patches, select, offsets, spacing: int) -> Step:
-    """The patches whose texel (y, x) satisfies select(y, x), with neighbours at offsets."""
-    y, x = p.texel_y.astype(np.int64), p.texel_x.astype(np.int64)
+def _step(p: Patches, y: np.ndarray, x: np.ndarray, select, offsets, spacing: int) -> Step:
+    """The patches whose texel (y, x) (N,) int64 satisfies select(y, x), with neighbours at offsets."""
     targets = np.flatnonzero(select(y, x))
     ty, tx = y[targets], x[targets]
     nbs = np.stack([_ids_at(p, ty + dy, tx + dx) for dy, dx in offsets], axis=1)
@@ -67,17 +66,18 @@ def _step(p: Patches, select, offsets, spacing: int) -> Step:
 def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
     """The initial grid (patch ids on every 4th texel) and the rounds of steps that follow:
     [[type 1 horizontal, type 1 vertical], [type 2]] for spacing 4, then for spacing 2."""
-    y, x = p.texel_y, p.texel_x
+    y, x = p.texel_y.astype(np.int64), p.texel_x.astype(np.int64)
     grid = np.flatnonzero((y % SPACING == 0) & (x % SPACING == 0))
     phases = []
     spacing = SPACING
     while spacing > 1:
         s, h = spacing, spacing // 2
         phases.append([
-            _step(p, lambda y, x: (y % s == 0) & (x % s == h), [(0, -h), (0, h)], s),
-            _step(p, lambda y, x: (y % s == h) & (x % s == 0), [(-h, 0), (h, 0)], s),
+            _step(p, y, x, lambda y, x: (y % s == 0) & (x % s == h), [(0, -h), (0, h)], s),
+            _step(p, y, x, lambda y, x: (y % s == h) & (x % s == 0), [(-h, 0), (h, 0)], s),
         ])
-        phases.append([_step(p, lambda y, x: (y % s == h) & (x % s == h), [(-h, 0), (h, 0), (0, -h), (0, h)], s)])
+        phases.append([_step(p, y, x, lambda y, x: (y % s == h) & (x % s == h),
+                             [(-h, 0), (h, 0), (0, -h), (0, h)], s)])
         spacing = h
     return grid, phases
 
@@ -104,29 +104,21 @@ def reopen(status: np.ndarray) -> None:
     status[status == INTERPOLATED] = UNDECIDED
 
 
-def flatten(phases: list[list[Step]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every step's targets (K,) in the sampler's order, with neighbours (K, 4), -1 padded,
-    and where each step begins (steps + 1,): the sampler's interpolation order."""
-    steps = [step for phase in phases for step in phase]
-    bounds = np.cumsum([0] + [len(s.targets) for s in steps])
-    if not steps:
-        return np.zeros(0, np.int64), np.zeros((0, 4), np.int64), bounds
-    pad = [np.pad(s.neighbours, ((0, 0), (0, 4 - s.neighbours.shape[1])), constant_values=-1) for s in steps]
-    return np.concatenate([s.targets for s in steps]), np.concatenate(pad), bounds
+def flatten(phases: list[list[Step]]) -> list[Step]:
+    """Every step in the sampler's order: its interpolation order."""
+    return [step for phase in phases for step in phase]
 
 
-def interpolate(G: np.ndarray, status: np.ndarray, order: tuple[np.ndarray, np.ndarray, np.ndarray],
-                run) -> np.ndarray:
+def interpolate(G: np.ndarray, status: np.ndarray, order: list[Step], run) -> np.ndarray:
     """Fill G (N, 3) in place at interpolated texels, in the sampler's order (`flatten`), each
     the mean of its neighbours. Undecided texels get the mean of whatever neighbours have
     values (a provisional estimate used while the sampler is still deciding); texels inside
     geometry end at 0. Steps run one after another, each in tasks on `run` (Tracer.map):
     a step's neighbours all belong to earlier steps, so its targets are independent."""
-    targets, neighbours, bounds = order
     have = (status == COMPUTED) | (status == INTERPOLATED)
-    for first, last in zip(bounds[:-1], bounds[1:]):
-        _kernels.over_spans(run, lambda a, b: _kernels.interpolate_targets(G, have, status, targets[a:b],
-                                                                           neighbours[a:b], COMPUTED), first, last)
+    for step in order:
+        _kernels.over_spans(run, lambda a, b: _kernels.interpolate_targets(
+            G, have, status, step.targets[a:b], step.neighbours[a:b], COMPUTED), 0, len(step.targets))
     _kernels.over_spans(run, lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G))
     return G
 
