@@ -1,4 +1,4 @@
-"""The item buffer's texel-rank table finds the same patches as the patch index it packs."""
+"""The item buffer's compact tables (texel ranks, emitting patches) answer as the arrays they pack."""
 import numba as nb
 import numpy as np
 import pytest
@@ -43,3 +43,13 @@ def test_a_rank_table_needs_patch_ids_in_texel_order():
     index[0, :2] = index[0, 1::-1]
     with pytest.raises(ValueError, match="texel"):
         _kernels.texel_ranks(index)
+
+
+def test_the_emitting_bits_find_the_rays_that_see_emission():
+    rng = np.random.default_rng(3)
+    emission = rng.random((13, 3)).astype(np.float32) * (rng.random((13, 1)) < 0.4)  # 13: not whole bytes
+    emission[4] = [0, 0, 0.5]
+    seen = rng.integers(_kernels.LOST, 13, 500).astype(np.int32)
+    expected = (seen >= 0) & np.any(emission[np.maximum(seen, 0)] > 0, axis=1)
+    assert 0 < expected.sum() < np.count_nonzero(seen >= 0)
+    assert np.array_equal(_kernels.emitting_rays(seen, _kernels.emitting_patches(emission)), expected)

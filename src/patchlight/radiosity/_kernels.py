@@ -332,20 +332,43 @@ def points_disagree(values, spread):
     return out
 
 
+def emitting_patches(emission: np.ndarray) -> np.ndarray:
+    """(ceil(N / 8),) u8, one bit per patch (little bit order): its emission (N, 3) is above
+    0 in some channel. 1/96 of the emission's bytes: the gather tests every ray that hits a
+    patch, and this stays in cache where the emission of a 2048 map (48 MiB) does not."""
+    return np.packbits(np.any(emission > 0, axis=1), bitorder="little")
+
+
+@nb.njit(cache=True, inline="always")
+def _emits(emitting, s):
+    """Patch s emits, by its bit in `emitting_patches`."""
+    return (emitting[s >> 3] >> (s & 7)) & 1 != 0
+
+
 @nb.njit(cache=True, nogil=True)
-def emission_shares(seen, tri, dist, dirs, local_dirs, emission, pdf_area, tri_normal, two_sided, nee_samples):
+def emitting_rays(seen, emitting):
+    """(R * D,) bool: the rays that see an emitting patch. seen (R * D,) as item_buffer_rows
+    takes it; emitting: `emitting_patches`."""
+    out = np.empty(seen.shape[0], np.bool_)
+    for i in range(seen.shape[0]):
+        out[i] = seen[i] >= 0 and _emits(emitting, seen[i])
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def emission_shares(seen, tri, dist, dirs, local_dirs, emitting, pdf_area, tri_normal, two_sided, nee_samples):
     """(R * D,) f32: the share of its emission each gather ray that hits an emitting patch
     counts (1 - 0), 0 for the other rays: its MIS weight against `nee_samples` next-event
     samples per texel (power heuristic; emitter_rays is the other half). seen (R * D,) as
     item_buffer_rows takes it; tri, dist: the rays' hit triangles and distances; dirs
-    (R * D, 3); local_dirs (D, 3) with z along the normal; emission (N, 3); pdf_area (T,) the
-    next-event pdf per m^2 of each triangle (0: never sampled); tri_normal (T, 3);
-    two_sided (T,)."""
+    (R * D, 3); local_dirs (D, 3) with z along the normal; emitting: `emitting_patches`;
+    pdf_area (T,) the next-event pdf per m^2 of each triangle (0: never sampled);
+    tri_normal (T, 3); two_sided (T,)."""
     d = local_dirs.shape[0]
     out = np.zeros(seen.shape[0], np.float32)
     for i in range(seen.shape[0]):
         s = seen[i]
-        if s < 0 or (emission[s, 0] <= 0.0 and emission[s, 1] <= 0.0 and emission[s, 2] <= 0.0):
+        if s < 0 or not _emits(emitting, s):
             continue
         t = tri[i]
         out[i] = 1.0

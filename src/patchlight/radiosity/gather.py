@@ -71,7 +71,8 @@ class Gatherer:
         self.patches, self.tri_uv1, self.two_sided, self.tracer, self.sky = patches, tri_uv1, two_sided, tracer, sky
         self.method, self.seed, self.offset = method, seed, offset
         self.emitters, self.nee_samples = emitters, nee_samples
-        self.emits = bool(np.any(patches.emission > 0))
+        self.emitting = _kernels.emitting_patches(patches.emission)
+        self.emits = bool(np.any(self.emitting))
         self.ranks = _kernels.texel_ranks(patches.index)
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
@@ -171,8 +172,8 @@ class Gatherer:
         holds the rest); 0 for rays that meet no emitting patch."""
         e = self.emitters
         if e is None or self.nee_samples == 0:
-            return (seen >= 0) & np.any(self.patches.emission[np.maximum(seen, 0)] > 0, axis=1)
-        return _kernels.emission_shares(seen, hits.tri, hits.t, dirs, self.dirs, self.patches.emission,
+            return _kernels.emitting_rays(seen, self.emitting)
+        return _kernels.emission_shares(seen, hits.tri, hits.t, dirs, self.dirs, self.emitting,
                                         e.pdf_area, e.tri_normal, e.tri_two_sided, float(self.nee_samples))
 
     def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
