@@ -421,13 +421,16 @@ def scatter_sum(G, ids, S, P):
             G[ids[k], c] = S[k, c] + P[k, c]
 
 
-TASK_ROWS = 1 << 16  # rows of a sweep one task of the tracer's pool takes
+TASK_ROWS = 1 << 16  # the most rows of a sweep one task of the tracer's pool takes
+MIN_TASK_ROWS = 1 << 12
 
 
 def over_spans(run, fn, first: int, last: int) -> list:
-    """fn(start, stop) over rows first..last-1 in spans of TASK_ROWS, as tasks on `run`
-    (Tracer.map); the results in order."""
-    return run(lambda span: fn(*span), [(s, min(s + TASK_ROWS, last)) for s in range(first, last, TASK_ROWS)])
+    """fn(start, stop) over rows first..last-1 as tasks on `run` (Tracer.map), the results in
+    order: spans of TASK_ROWS, or quarters of the sweep (of at least MIN_TASK_ROWS) when that
+    is shorter, so that both cores share small sweeps too."""
+    size = min(TASK_ROWS, max(MIN_TASK_ROWS, -(-(last - first) // 4)))
+    return run(lambda span: fn(*span), [(s, min(s + size, last)) for s in range(first, last, size)])
 
 
 @nb.njit(cache=True, nogil=True)
