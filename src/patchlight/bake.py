@@ -99,6 +99,15 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
 
+def _half_floats(a: np.ndarray, tracer: Tracer) -> np.ndarray:
+    """a (N, 3) as float16, converted in halves on the tracer's two threads (NumPy's casts
+    release the GIL): a pass's copy at 2048 x 2048 took 26-48 ms on one core."""
+    out = np.empty(a.shape, np.float16)
+    half = len(a) // 2
+    tracer.map(lambda span: np.copyto(out[span], a[span], casting="same_kind"), [slice(0, half), slice(half, None)])
+    return out
+
+
 def _join_cluster(address: str | None):
     """The Ray cluster the gather runs on (joined before any work, so a bad address costs
     nothing), or None: the gather runs here."""
@@ -169,7 +178,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         with progress.stage("passes", total=settings.passes) as advance:
             def on_pass(k, change, incident):
                 advance(1, note=f"pass {k}: change {change:.2e}")
-                pass_incident.append(incident.astype(np.float16))
+                pass_incident.append(_half_floats(incident, tracer))
 
             solution = solve(ff, direct, patches.rho, patches.emission, status, order,
                              settings.passes, settings.tolerance, on_pass=on_pass)

@@ -34,9 +34,16 @@ def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
     from patchlight.radiosity.solve import PanelBlock
 
     rng = np.random.default_rng(3)
-    F = sp.random(300, n_cols, density=40 / n_cols, format="csr", dtype=np.float32, random_state=rng)
+    F = sp.random(20000, n_cols, density=20 / n_cols, format="csr", dtype=np.float32, random_state=rng)
     F.indices = F.indices.astype(np.int32)
     B = rng.random((n_cols, 3), dtype=np.float32)
-    block = PanelBlock.of(F)
-    assert block.n_rows == 300 and len(block.weights) == F.nnz
+    last_first = []  # the spans' tasks run last first: each writes where the spans before it end
+
+    def run(fn, items):
+        last_first.append(len(items))
+        return [fn(item) for item in reversed(items)][::-1]
+
+    block = PanelBlock.of(F, run)
+    assert block.n_rows == 20000 and len(block.weights) == F.nnz and min(last_first) > 1
+    assert np.all(np.diff(block.starts) >= 0) and block.starts[-1] == F.nnz
     np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)

@@ -595,35 +595,34 @@ PANEL_BITS = 16  # a panel is 2^16 columns of F: its slice of B (768 KiB) stays 
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_major(indptr, indices, data, first, last, panels):
-    """Rows first..last-1 (at most 2^16) of a CSR matrix (f32, int32 columns) reordered
-    column panel by column panel (PANEL_BITS), rows ascending within a panel: starts
-    (panels + 1,) int64 where each panel's entries begin, rows (nnz,) u16 (from first), cols
-    (nnz,) u16 (within the panel), weights (nnz,) f32. A counting sort: O(nnz + panels)."""
-    a, b = indptr[first], indptr[last]
-    starts = np.zeros(panels + 1, np.int64)
-    for k in range(a, b):
-        starts[(indices[k] >> PANEL_BITS) + 1] += 1
-    for p in range(panels):
-        starts[p + 1] += starts[p]
-    fill = starts[:-1].copy()
-    rows = np.empty(b - a, np.uint16)
-    cols = np.empty(b - a, np.uint16)
-    weights = np.empty(b - a, np.float32)
+def panel_counts(indptr, indices, first, last, panels):
+    """(panels,) int64: the entries of CSR rows first..last-1 in each column panel
+    (PANEL_BITS): the first half of a counting sort into panel-major order (`panel_fill`)."""
+    counts = np.zeros(panels, np.int64)
+    for k in range(indptr[first], indptr[last]):
+        counts[indices[k] >> PANEL_BITS] += 1
+    return counts
+
+
+@nb.njit(cache=True, nogil=True)
+def panel_fill(indptr, indices, data, first, last, at, rows, cols, weights):
+    """The second half: write CSR rows first..last-1 (f32, int32 columns; at most 2^16 rows
+    in all) into a panel-major block, column panel by column panel, rows ascending within
+    a panel: rows (u16, the CSR row), cols (u16, the column within its panel) and weights
+    (f32) from position at[p] on for panel p (at: (panels,) int64, advanced in place)."""
     for r in range(first, last):
         for k in range(indptr[r], indptr[r + 1]):
             c = indices[k]
-            at = fill[c >> PANEL_BITS]
-            fill[c >> PANEL_BITS] = at + 1
-            rows[at] = r - first
-            cols[at] = c & ((1 << PANEL_BITS) - 1)
-            weights[at] = data[k]
-    return starts, rows, cols, weights
+            i = at[c >> PANEL_BITS]
+            at[c >> PANEL_BITS] = i + 1
+            rows[i] = r
+            cols[i] = c & ((1 << PANEL_BITS) - 1)
+            weights[i] = data[k]
 
 
 @nb.njit(cache=True, nogil=True)
 def panel_times_rgb(starts, rows, cols, weights, B, n_rows):
-    """(n_rows, 3) f32 product of a panel-major block (`panel_major`) with B (N, 3) f32, on
+    """(n_rows, 3) f32 product of a panel-major block (`panel_fill`) with B (N, 3) f32, on
     the calling thread. Panel by panel, the block's reads of B stay in one 2^16-row slice
     and its sums in an n_rows x 3 array, both cache-resident: about 3x faster than row by
     row over a CSR matrix whose B is larger than the caches (whose every read then misses)."""

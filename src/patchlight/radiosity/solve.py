@@ -56,7 +56,7 @@ class FormFactors:
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
         if self.kept and self.nbytes + _csr_bytes(g.F) <= self.budget:
-            self.blocks.append(PanelBlock.of(g.F))
+            self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -93,7 +93,7 @@ class FormFactors:
 @dataclass
 class PanelBlock:
     """Rows of F (a gathered block, at most 2^16) column panel by column panel
-    (`_kernels.panel_major`): the unit of F B one core multiplies at a time."""
+    (`_kernels.panel_fill`): the unit of F B one core multiplies at a time."""
 
     starts: np.ndarray
     rows: np.ndarray
@@ -102,9 +102,20 @@ class PanelBlock:
     n_rows: int
 
     @classmethod
-    def of(cls, F: sp.csr_matrix) -> PanelBlock:
+    def of(cls, F: sp.csr_matrix, run) -> PanelBlock:
+        """F (R, N) CSR (R at most 2^16) reordered on `run` (Tracer.map): each span of rows
+        counts its entries per panel, then writes them where the spans before it end."""
         panels = (F.shape[1] >> _kernels.PANEL_BITS) + 1
-        return cls(*_kernels.panel_major(F.indptr, F.indices, F.data, 0, F.shape[0], panels), F.shape[0])
+        spans = _kernels.over_spans(run, lambda a, b: (a, b, _kernels.panel_counts(F.indptr, F.indices, a, b, panels)),
+                                    0, F.shape[0])
+        counts = np.array([c for _, _, c in spans]).reshape(-1, panels)
+        starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
+        at = {a: starts[:-1] + np.cumsum(counts, axis=0)[i] - counts[i] for i, (a, _, _) in enumerate(spans)}
+        rows, cols = np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.uint16)
+        weights = np.empty(F.nnz, np.float32)
+        run(lambda span: _kernels.panel_fill(F.indptr, F.indices, F.data, span[0], span[1], at[span[0]],
+                                             rows, cols, weights), [(a, b) for a, b, _ in spans])
+        return cls(starts, rows, cols, weights, F.shape[0])
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
@@ -136,13 +147,16 @@ class Solution:
     changes: list[float]
 
 
-def gathered_light(ff: FormFactors, reflected: np.ndarray, status: np.ndarray, order, G: np.ndarray) -> np.ndarray:
+def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.ndarray, order,
+                   G: np.ndarray) -> np.ndarray:
     """Fill G (N, 3) f32 in place with S + F (B - E) at computed patches, interpolated
     elsewhere, and return it: the gather's emitted light is in S with the sky (its MIS share
-    beside the direct stage's), F carries the reflected light rho I. Every patch is computed,
-    a target of the sampler or inside geometry (0), so a G that starts at 0 is all written."""
+    beside the direct stage's), F carries the reflected light rho I (None: nothing is
+    reflected yet, F (B - E) = 0 is not computed). Every patch is computed, a target of the
+    sampler or inside geometry (0), so a G that starts at 0 is all written."""
     run = ff.gatherer.tracer.map
-    ids, S, product = ff.ids, ff.S, ff.product(reflected)
+    ids, S = ff.ids, ff.S
+    product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected)
     _kernels.over_spans(run, lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
     return adaptive.interpolate(G, status, order, run)
 
@@ -165,7 +179,7 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     changes = []
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
-        gathered_light(ff, reflected, status, order, G)
+        gathered_light(ff, None if k == 1 and B0 is None else reflected, status, order, G)  # B = E: F (B - E) = 0
         _kernels.over_spans(run, lambda a, b: _kernels.pass_light(
             direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], B[a:b], reflected[a:b]), 0, len(B))
         changes.append(1.0 if k == 1 else relative_change(I, previous, run))
