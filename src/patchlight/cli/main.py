@@ -85,9 +85,9 @@ class _StopSignals:
     their number (`received`); another one while the first is being cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
-    (SIGALRM), as does one that lands in numba's or llvmlite's own Python code (compiling,
-    loading or launching a kernel): raised there, it left their objects half built, and the
-    process crashed (SIGSEGV) when it freed them. Only in the main thread (main() called
+    (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
+    numba's or llvmlite's own Python code, it left their objects half built, and the process
+    crashed (SIGSEGV) when it freed them; in an import, an extension's C code could swallow it. Only in the main thread (main() called
     from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
     main), `_exit_now`: the work is done; the exit handlers may take a while."""
@@ -122,7 +122,7 @@ class _StopSignals:
     def stop(self, number, frame) -> None:
         self.stopping = True
         if self.received is None:
-            if _in_numba(frame):  # raised there, it leaves numba's objects half built
+            if _unsafe_to_raise(frame):
                 self.pending = number
                 signal.setitimer(signal.ITIMER_REAL, 0.005)
                 return
@@ -142,11 +142,15 @@ class _StopSignals:
         # the signal lands while numba compiles): part of the stop, not news to the user
 
 
-def _in_numba(frame) -> bool:
-    """The Python code running is numba's or llvmlite's (compiling, loading or launching a
-    kernel), at any depth of the stack."""
+def _unsafe_to_raise(frame) -> bool:
+    """At any depth of the stack, the Python code running is numba's or llvmlite's
+    (compiling, loading or launching a kernel: raised there, an interrupt leaves their
+    objects half built) or an import (an extension module's C code that imports another,
+    such as OpenEXR importing Imath, may clear the error and go on: the interrupt is lost)."""
     while frame is not None:
-        if frame.f_globals.get("__name__", "").partition(".")[0] in ("numba", "llvmlite"):
+        if frame.f_globals.get("__name__", "").partition(".")[0] in ("numba", "llvmlite", "importlib"):
+            return True
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
             return True
         frame = frame.f_back
     return False
