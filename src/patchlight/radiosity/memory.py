@@ -7,9 +7,9 @@ sampler's plan and state, the passes kept as float16, images and the files' buff
 covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the room's 213
 at 1024 and 200 at 2048). Peak minus F was 0.57 and 1.53 GiB at 1024 and 2048: 256 MiB plus
 328 a texel. Direct light works chunk by chunk, so its points per texel cost nothing per
-texel. The time is CPU seconds per texel over the cores: the room at 4096 took 550 CPU
-seconds for 16.8 M texels, 33 microseconds each (21 at 1024: smaller bakes keep more in the
-caches, so the estimate errs long for them). F gets what is left, up to max_memory, and is
+texel. The time is CPU seconds per texel over the cores: the room at 4096 took 354 CPU
+seconds for 16.8 M texels, 21 microseconds each (17 at 1024 and 16 at 2048: the estimate
+errs long for smaller bakes). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
@@ -26,7 +26,7 @@ from ..limits import available_memory
 BASE_BYTES = 256 << 20         # the interpreter and its libraries
 BYTES_PER_TEXEL = 328          # F aside (module docstring)
 FORM_FACTOR_BYTES_PER_TEXEL = 200  # F of the room per lightmap texel (module docstring)
-CORE_SECONDS_PER_TEXEL = 33e-6  # the room's whole bake per texel on one core of this machine (module docstring)
+CORE_SECONDS_PER_TEXEL = 21e-6  # the room's whole bake per texel on one core of this machine (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
 
