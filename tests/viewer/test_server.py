@@ -195,7 +195,8 @@ def test_a_port_in_use_is_a_one_line_error():
             ViewerServer(b"{}", b"", port=port)
 
 
-def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):
+@pytest.mark.parametrize("number, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path, number, status):
     proc = subprocess.Popen([sys.executable, "-m", "patchlight.cli.main", "view", "room", "--exposure", "1"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -213,8 +214,8 @@ def test_view_command_prints_the_address_serves_and_stops_on_ctrl_c(tmp_path):
         unread.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         unread.sendall(f"GET /scene/data.bin HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
         assert unread.recv(12).startswith(b"HTTP/1.0 200")
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=20) == 130
+        proc.send_signal(number)
+        assert proc.wait(timeout=20) == status
         assert "viewer stopped" in proc.stdout.read()
         half_sent.close()
         unread.close()

@@ -81,8 +81,8 @@ def _warning_line(message, *_) -> None:
 
 
 class _StopSignals:
-    """SIGINT and SIGTERM raise KeyboardInterrupt once, wherever the program is, and record
-    their number (`received`); another one while the first is being cleaned up is ignored.
+    """SIGINT and SIGTERM raise KeyboardInterrupt(number) once, wherever the program is, and
+    record their number (`received`); another one while the first is being cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
     (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
@@ -127,7 +127,7 @@ class _StopSignals:
                 signal.setitimer(signal.ITIMER_REAL, 0.005)
                 return
             self.received = number
-            raise KeyboardInterrupt
+            raise KeyboardInterrupt(number)  # the number: for a command that ends the process itself (view)
 
     def again(self, number, frame) -> None:
         self.stop(self.pending, frame)

@@ -1,12 +1,13 @@
 """`patchlight view SCENE_OR_BAKE_DIR [--port N]`: the runtime lighting models in the browser.
 
 Serves the viewer on 127.0.0.1 only (a free port unless --port), prints the address and
-runs until Ctrl-C or SIGTERM (exit status 130). The page runs the same GLSL chunks the CPU
+runs until Ctrl-C or SIGTERM (exit status 130 or 143). The page runs the same GLSL chunks the CPU
 renderer's reference mirrors."""
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 from ..shading.models import MODELS
@@ -57,14 +58,15 @@ def run(args) -> int:
     print(f"patchlight viewer for {target.name}: {server.url}  (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()
-    except KeyboardInterrupt:
-        stop_now(server)
+    except KeyboardInterrupt as stop:
+        stop_now(server, 128 + (stop.args[0] if stop.args else signal.SIGINT))
     finally:
         server.httpd.server_close()
 
 
-def stop_now(server) -> None:
-    """End the process at once on Ctrl-C, whatever requests are under way.
+def stop_now(server, status: int) -> None:
+    """End the process at once on Ctrl-C or SIGTERM (status 130 or 143), whatever requests
+    are under way.
 
     The viewer writes nothing, so there is nothing to finish: requests still being served are
     cut off, and the interpreter's teardown is skipped, which walks every object the JIT made
@@ -72,5 +74,5 @@ def stop_now(server) -> None:
     server.httpd.server_close()
     print("\npatchlight viewer stopped", flush=True)
     sys.stderr.flush()
-    os._exit(130)
+    os._exit(status)
 
