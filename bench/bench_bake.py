@@ -5,8 +5,9 @@ stage, and the ratio of the whole bake's time to the time embreex alone needs to
 same rays: the bake runs twice, timed and then untimed while the rays it casts (closest-hit
 and occlusion) are recorded (the bake is deterministic: both cast the same rays), and the
 recorded rays are re-traced with bare `EmbreeScene.run` calls on a thread per core. The JIT
-is warmed up first, untimed. The recording costs memory (about 50 bytes a ray). Large lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so
-the copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
+is warmed up first, untimed. The recording costs memory (about 50 bytes a ray). Large
+lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above, so the
+copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
 scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation and
 the same ratio in CPU seconds (bake's process against bare embreex's), which a shared
 machine's load distorts less than the wall clock.

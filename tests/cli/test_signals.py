@@ -150,3 +150,18 @@ def test_the_process_ends_after_the_work_and_a_signal_while_winding_down_ends_it
     stopped = subprocess.run([sys.executable, "-c", script, "signal"], capture_output=True, text=True, timeout=60)
     assert stopped.returncode == 130 and "handler finished" not in stopped.stdout
     assert "Traceback" not in stopped.stderr
+
+
+def test_an_interrupt_waits_out_an_import_and_numba_but_not_plain_code(tmp_path, monkeypatch):
+    """Inside an import (an extension's C code may swallow the error) and inside numba the
+    interrupt comes again later; in the package's own code it is raised at once."""
+    from patchlight.cli.main import _unsafe_to_raise
+
+    (tmp_path / "being_imported.py").write_text("import sys\nFRAME = sys._getframe()\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import being_imported  # its body's frame, captured while the import ran
+
+    in_numba = {"__name__": "numba.core"}
+    exec("import sys\nFRAME = sys._getframe()", in_numba)
+    assert _unsafe_to_raise(being_imported.FRAME) and _unsafe_to_raise(in_numba["FRAME"])
+    assert not _unsafe_to_raise(sys._getframe())

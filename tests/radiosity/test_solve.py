@@ -26,7 +26,7 @@ def test_an_exact_fixed_point_stops_at_once():
     assert change_to_come([1.0, 0.0]) == 0.0
 
 
-@pytest.mark.parametrize("n_cols", [1000, 3 * 65536 + 17])  # one column panel, and four
+@pytest.mark.parametrize("n_cols", [1000, 65536, 3 * 65536 + 17])  # one column panel, one and an empty one, four
 def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
     import numpy as np
     import scipy.sparse as sp
@@ -47,3 +47,20 @@ def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
     assert block.n_rows == 20000 and len(block.weights) == F.nnz and min(last_first) > 1
     assert np.all(np.diff(block.starts) >= 0) and block.starts[-1] == F.nnz
     np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)
+
+
+def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
+    import numpy as np
+    import scipy.sparse as sp
+
+    from patchlight.radiosity.solve import PanelBlock
+
+    def run(fn, items):
+        return [fn(item) for item in items]
+
+    empty = PanelBlock.of(sp.csr_matrix((0, 70000), dtype=np.float32), run)
+    assert empty.times(np.ones((70000, 3), np.float32)).shape == (0, 3)
+    one = sp.csr_matrix(([2.0, 3.0], ([0, 0], [5, 65536])), shape=(1, 70000), dtype=np.float32)
+    np.testing.assert_array_equal(PanelBlock.of(one, run).times(np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
+    with pytest.raises(ValueError, match="2\\^16 rows"):
+        PanelBlock.of(sp.csr_matrix((65537, 4), dtype=np.float32), run)

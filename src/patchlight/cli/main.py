@@ -87,8 +87,8 @@ class _StopSignals:
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
     (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
     numba's or llvmlite's own Python code, it left their objects half built, and the process
-    crashed (SIGSEGV) when it freed them; in an import, an extension's C code could swallow it. Only in the main thread (main() called
-    from a test's thread: no handlers).
+    crashed (SIGSEGV) when it freed them; in an import, an extension's C code could swallow
+    it. Only in the main thread (main() called from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
     main), `_exit_now`: the work is done; the exit handlers may take a while."""
 

@@ -105,16 +105,18 @@ class PanelBlock:
     def of(cls, F: sp.csr_matrix, run) -> PanelBlock:
         """F (R, N) CSR (R at most 2^16) reordered on `run` (Tracer.map): each span of rows
         counts its entries per panel, then writes them where the spans before it end."""
+        if F.shape[0] > 1 << 16:
+            raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {F.shape[0]}")
         panels = (F.shape[1] >> _kernels.PANEL_BITS) + 1
-        spans = _kernels.over_spans(run, lambda a, b: (a, b, _kernels.panel_counts(F.indptr, F.indices, a, b, panels)),
-                                    0, F.shape[0])
-        counts = np.array([c for _, _, c in spans]).reshape(-1, panels)
+        spans = _kernels.spans(0, F.shape[0])
+        counts = np.array(run(lambda span: _kernels.panel_counts(F.indptr, F.indices, *span, panels), spans))
+        counts = counts.reshape(len(spans), panels)  # (spans, panels)
         starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
-        at = {a: starts[:-1] + np.cumsum(counts, axis=0)[i] - counts[i] for i, (a, _, _) in enumerate(spans)}
+        at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each span's entries of each panel go
         rows, cols = np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.uint16)
         weights = np.empty(F.nnz, np.float32)
-        run(lambda span: _kernels.panel_fill(F.indptr, F.indices, F.data, span[0], span[1], at[span[0]],
-                                             rows, cols, weights), [(a, b) for a, b, _ in spans])
+        run(lambda k: _kernels.panel_fill(F.indptr, F.indices, F.data, *spans[k], at[k], rows, cols, weights),
+            list(range(len(spans))))
         return cls(starts, rows, cols, weights, F.shape[0])
 
     def times(self, B: np.ndarray) -> np.ndarray:
