@@ -20,9 +20,8 @@ from patchlight.atlas.raster import rasterize
 from patchlight.atlas.uvs import ensure_lightmap_uvs
 from patchlight.config import BakeSettings
 from patchlight.radiosity.emitters import find_emitters, samples_per_texel
-from patchlight.radiosity.gather import Gatherer, corner_uv1, ray_offsets
+from patchlight.radiosity.gather import Gatherer
 from patchlight.rays.hemisphere import hemisphere_rays, row_angles
-from patchlight.rays.inside import two_sided_triangles
 from patchlight.rays.tracer import Tracer
 from patchlight.scene import load_scene
 
@@ -34,9 +33,8 @@ def gatherer_of(name: str, resolution: int, emitter_samples: int) -> Gatherer:
     scene, width, height, _ = ensure_lightmap_uvs(load_scene(name), resolution=resolution)
     patches, _ = rasterize(scene, width, height)
     samples = samples_per_texel(emitter_samples)
-    return Gatherer(patches, corner_uv1(scene), two_sided_triangles(scene), Tracer(scene.positions, scene.indices),
-                    scene.sky, settings.gather, settings.rays, ray_offsets(scene, patches), settings.seed,
-                    find_emitters(scene, patches) if samples else None, samples)
+    return Gatherer(scene, patches, Tracer(scene.positions, scene.indices), settings.gather, settings.rays,
+                    settings.seed, find_emitters(scene, patches) if samples else None, samples)
 
 
 def thread_seconds(fn, chunks) -> float:

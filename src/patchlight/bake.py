@@ -21,12 +21,11 @@ from .radiosity import adaptive
 from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel
-from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
+from .radiosity.gather import Gatherer
 from .radiosity.memory import (check_bake_memory, estimate_peak_bytes, estimate_seconds, form_factor_budget,
                                peak_resident_bytes)
 from .radiosity.sampling import gather_adaptive, walled_inside
 from .radiosity.solve import FormFactors, Solution, change_to_come, solve
-from .rays.inside import two_sided_triangles
 from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
@@ -143,10 +142,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             raise PatchlightError(f"{scene.label}: no lightmap texel is covered by a triangle")
         with progress.stage("tracer"):
             tracer = Tracer(scene.positions, scene.indices)
-        offset = ray_offsets(scene, patches)
         size = settings.hemicube_size if settings.gather == "hemicube" else settings.rays
-        gatherer = Gatherer(patches, corner_uv1(scene), two_sided_triangles(scene), tracer, scene.sky, settings.gather,
-                            size, offset, settings.seed)
+        gatherer = Gatherer(scene, patches, tracer, settings.gather, size, settings.seed)
+        offset = gatherer.offset
         with progress.stage("direct light"):
             sun_angle = None if settings.sun_angle is None else np.radians(settings.sun_angle)
             lights = [[light] for light in scene.baked_lights] if settings.directional else [scene.baked_lights]

@@ -133,8 +133,7 @@ class PatchViews:
         from . import bakedir
         from .atlas.raster import rasterize
         from .radiosity.emitters import find_emitters, samples_per_texel
-        from .rays.inside import two_sided_triangles
-        from .radiosity.gather import Gatherer, corner_uv1, ray_offsets
+        from .radiosity.gather import Gatherer
         from .rays.tracer import Tracer
 
         bake_dir = Path(bake_dir)
@@ -153,9 +152,8 @@ class PatchViews:
         self.patches, _ = rasterize(scene, width, height)
         samples = samples_per_texel(int(settings.get("emitter_samples", 0)))
         emitters = find_emitters(scene, self.patches) if samples else None
-        self.gatherer = Gatherer(self.patches, corner_uv1(scene), two_sided_triangles(scene),
-                                 Tracer(scene.positions, scene.indices), scene.sky, method, size,
-                                 ray_offsets(scene, self.patches), seed, emitters, samples)
+        self.gatherer = Gatherer(scene, self.patches, Tracer(scene.positions, scene.indices), method, size, seed,
+                                 emitters, samples)
         self.size = size
 
     def at(self, x: int, y: int) -> PatchView:

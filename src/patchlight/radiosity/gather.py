@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
-from ..rays.inside import back_share
+from ..rays.inside import back_share, two_sided_triangles
 from ..rays.tracer import Tracer
 from ..scene.model import Scene
 from . import _kernels
@@ -59,17 +59,19 @@ class Gatherer:
     """Traces gather rays for chosen patches of one scene.
 
     method: "hemicube" (size = pixels across the front face) or "stratified" (size = rays).
-    two_sided: (T,) bool, triangles whose back faces are ordinary surfaces (doubleSided).
+    From the scene it keeps the corners' lightmap UVs (`corner_uv1`), two_sided: (T,) bool,
+    the triangles whose back faces are ordinary surfaces (doubleSided), the sky, and offset:
+    how far each patch's rays start off it (`ray_offsets`).
     emitters: the scene's `Emitters` when the direct stage samples them with `nee_samples`
     shadow rays per texel; a ray that hits an emitter then counts its emission with the
     complementary MIS weight into the constant term S. None: the gather alone sees emitters.
     """
 
-    def __init__(self, patches: Patches, tri_uv1: np.ndarray, two_sided: np.ndarray, tracer: Tracer, sky,
-                 method: str, size: int, offset: np.ndarray, seed: int = 1, emitters: Emitters | None = None,
-                 nee_samples: int = 0):
-        self.patches, self.tri_uv1, self.two_sided, self.tracer, self.sky = patches, tri_uv1, two_sided, tracer, sky
-        self.method, self.seed, self.offset = method, seed, offset
+    def __init__(self, scene: Scene, patches: Patches, tracer: Tracer, method: str, size: int, seed: int = 1,
+                 emitters: Emitters | None = None, nee_samples: int = 0):
+        self.patches, self.tracer, self.sky = patches, tracer, scene.sky
+        self.tri_uv1, self.two_sided = corner_uv1(scene), two_sided_triangles(scene)
+        self.method, self.seed, self.offset = method, seed, ray_offsets(scene, patches)
         self.emitters, self.nee_samples = emitters, nee_samples
         self.emitting = _kernels.emitting_patches(patches.emission)
         self.emits = bool(np.any(self.emitting))
