@@ -87,8 +87,7 @@ class _StopSignals:
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
     (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
     numba's or llvmlite's own Python code, it left their objects half built, and the process
-    crashed (SIGSEGV) when it freed them; in an import, an extension's C code could swallow
-    it. Only in the main thread (main() called from a test's thread: no handlers).
+    crashed (SIGSEGV) when it freed them. Only in the main thread (main() called from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
     main), `_exit_now`: the work is done; the exit handlers may take a while."""
 
@@ -144,13 +143,11 @@ class _StopSignals:
 
 def _unsafe_to_raise(frame) -> bool:
     """At any depth of the stack, the Python code running is numba's or llvmlite's
-    (compiling, loading or launching a kernel: raised there, an interrupt leaves their
-    objects half built) or an import (an extension module's C code that imports another,
-    such as OpenEXR importing Imath, may clear the error and go on: the interrupt is lost)."""
+    (compiling, loading or launching a kernel): raised there, an interrupt leaves their
+    objects half built. (Imports are not deferred: the command's first stage would start
+    before the interrupt came, and its progress bar would be left on the screen.)"""
     while frame is not None:
-        if frame.f_globals.get("__name__", "").partition(".")[0] in ("numba", "llvmlite", "importlib"):
-            return True
-        if frame.f_code.co_filename.startswith("<frozen importlib"):
+        if frame.f_globals.get("__name__", "").partition(".")[0] in ("numba", "llvmlite"):
             return True
         frame = frame.f_back
     return False
