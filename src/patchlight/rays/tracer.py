@@ -6,7 +6,6 @@ every ray at t = 0: callers offset their origins off the surface themselves.
 """
 from __future__ import annotations
 
-import functools
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -51,9 +50,10 @@ class Hits:
     normal: np.ndarray
     directions: np.ndarray
 
-    @functools.cached_property
+    @property
     def front(self) -> np.ndarray:
-        """(N,) bool: True where the ray met the triangle's front face (`faces_ray`)."""
+        """(N,) bool: True where the ray met the triangle's front face (`faces_ray`), derived
+        on each read, so it follows tri, normal and directions when a caller changes them."""
         return _front_faces(self.tri, self.normal, self.directions)
 
 

@@ -67,7 +67,7 @@ class Renderer:
                 break
             travelled[redo] += hits.t[redo] + self._epsilon
             again = self.tracer.intersect(origins[redo] + directions[redo] * travelled[redo, None], directions[redo])
-            for name in ("tri", "u", "v", "t", "normal", "front"):  # front: computed, kept in step
+            for name in ("tri", "u", "v", "t", "normal"):  # front follows from them
                 getattr(hits, name)[redo] = getattr(again, name)
             culled[:] = False
             culled[redo] = self._culled(again)
