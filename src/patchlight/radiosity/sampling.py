@@ -1,9 +1,12 @@
 """The adaptive sampler's driver: which patches the bake gathers, run after run.
 
 Gather every 4th texel; then, for each run of the sampler (first at settings.first_accuracy,
-then at settings.accuracy, adaptive.py), solve to a warm start and let each of the sampler's
-steps decide which texels it must gather. Patches found inside geometry (rays.inside: by a
-few probe rays first, else by their gather rays) are marked INSIDE and get no light.
+then at settings.accuracy, adaptive.py), solve what is gathered so far (warm-started by the
+run before) and let each of the sampler's steps decide which texels it must gather. Between
+phases only the rows just gathered are multiplied by that solution's reflected light (one
+product of the new rows, not passes over all of F): what the next phase decides on. Patches
+found inside geometry (rays.inside: by a few probe rays first, else by their gather rays) are
+marked INSIDE and get no light.
 """
 from __future__ import annotations
 
@@ -15,11 +18,10 @@ from ..progress import Progress
 from ..rays.inside import is_inside
 from ..rays.tracer import Tracer
 from . import _kernels, adaptive
-from .solve import FormFactors, solve
+from .solve import FormFactors, gathered_light, solve
 
-REFINE_TOLERANCE = 1e-2     # each run of the sampler starts on a solution converged well inside
-REFINE_FIRST_PASSES = 100   # its 2-8 % thresholds (at most this many passes), then updates it,
-REFINE_PASSES = 2           # warm-started, by a couple of passes per phase
+REFINE_TOLERANCE = 1e-2  # each run of the sampler decides on a solution converged well inside
+REFINE_PASSES = 100      # its 2-8 % thresholds (at most this many passes)
 
 
 def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
@@ -39,11 +41,15 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
         B = None
         for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
             adaptive.reopen(status)
+            solution = solve(ff, direct, patches.rho, patches.emission, status, order,
+                             REFINE_PASSES, max(settings.tolerance, REFINE_TOLERANCE), B)
+            B, G = solution.excident, solution.gathered
+            reflected = B - patches.emission
+            first = len(ff.ids)
             for k, phase in enumerate(phases):
-                passes = REFINE_FIRST_PASSES if k == 0 else REFINE_PASSES
-                solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                                 passes, max(settings.tolerance, REFINE_TOLERANCE), B)
-                B, G = solution.excident, solution.gathered
+                if k:  # the rows the phase before gathered, lit by the run's solution
+                    gathered_light(ff, reflected, status, order, G, first)
+                    first = len(ff.ids)
                 for step in phase:
                     rows = adaptive.decide(step, status, G, accuracy, noise, ff.gatherer.tracer.map)
                     _compute(ff, rows, status, advance)

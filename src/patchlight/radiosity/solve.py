@@ -61,15 +61,19 @@ class FormFactors:
             self.kept, self.blocks = False, []
         return g.back_fraction
 
-    def product(self, B: np.ndarray) -> np.ndarray:
-        """(C, 3) F @ B for the computed rows, in `ids` order."""
+    def product(self, B: np.ndarray, first: int = 0) -> np.ndarray:
+        """(C - first, 3) F @ B for the computed rows first.. in `ids` order (first: where an
+        add() began)."""
         if not self.kept:
-            self.rays_regathered += len(self.ids) * self.gatherer.rays_per_patch
-            return self.gatherer.product(self.ids, B)
-        if not self.blocks:
+            ids = self.ids[first:]
+            self.rays_regathered += len(ids) * self.gatherer.rays_per_patch
+            return self.gatherer.product(ids, B)
+        ends = np.cumsum([block.n_rows for block in self.blocks])
+        blocks = self.blocks[int(np.searchsorted(ends, first, side="right")):]
+        if not blocks:
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), self.blocks))
+        return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), blocks))
 
     @property
     def ids(self) -> np.ndarray:
@@ -150,15 +154,16 @@ class Solution:
 
 
 def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.ndarray, order,
-                   G: np.ndarray) -> np.ndarray:
-    """Fill G (N, 3) f32 in place with S + F (B - E) at computed patches, interpolated
-    elsewhere, and return it: the gather's emitted light is in S with the sky (its MIS share
-    beside the direct stage's), F carries the reflected light rho I (None: nothing is
-    reflected yet, F (B - E) = 0 is not computed). Every patch is computed, a target of the
-    sampler or inside geometry (0), so a G that starts at 0 is all written."""
+                   G: np.ndarray, first: int = 0) -> np.ndarray:
+    """Fill G (N, 3) f32 in place with S + F (B - E) at the computed patches of rows first..
+    (in `ids` order; those before keep their G), interpolated elsewhere, and return it: the
+    gather's emitted light is in S with the sky (its MIS share beside the direct stage's), F
+    carries the reflected light rho I (None: nothing is reflected yet, F (B - E) = 0 is not
+    computed). Every patch is computed, a target of the sampler or inside geometry (0), so a
+    G that starts at 0 is all written."""
     run = ff.gatherer.tracer.map
-    ids, S = ff.ids, ff.S
-    product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected)
+    ids, S = ff.ids[first:], ff.S[first:]
+    product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected, first)
     _kernels.over_spans(run, lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
     return adaptive.interpolate(G, status, order, run)
 
