@@ -96,8 +96,9 @@ class FormFactors:
 
 @dataclass
 class PanelBlock:
-    """Rows of F (a gathered block, at most 2^16) column panel by column panel
-    (`_kernels.panel_fill`): the unit of F B one core multiplies at a time."""
+    """Rows of F (a gathered block, at most 2^16) column panel by column panel, each panel
+    in column order (`_kernels.panel_fill`, `panel_by_columns`): the unit of F B one core
+    multiplies at a time."""
 
     starts: np.ndarray
     rows: np.ndarray
@@ -108,7 +109,8 @@ class PanelBlock:
     @classmethod
     def of(cls, F: sp.csr_matrix, run) -> PanelBlock:
         """F (R, N) CSR (R at most 2^16) reordered on `run` (Tracer.map): each span of rows
-        counts its entries per panel, then writes them where the spans before it end."""
+        counts its entries per panel, then writes them where the spans before it end; then
+        each panel is put in column order."""
         if F.shape[0] > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {F.shape[0]}")
         panels = (F.shape[1] >> _kernels.PANEL_BITS) + 1
@@ -117,11 +119,12 @@ class PanelBlock:
         counts = counts.reshape(len(spans), panels)  # (spans, panels)
         starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
         at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each span's entries of each panel go
-        rows, cols = np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.uint16)
-        weights = np.empty(F.nnz, np.float32)
-        run(lambda k: _kernels.panel_fill(F.indptr, F.indices, F.data, *spans[k], at[k], rows, cols, weights),
+        by_rows = (np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.float32))
+        run(lambda k: _kernels.panel_fill(F.indptr, F.indices, F.data, *spans[k], at[k], *by_rows),
             list(range(len(spans))))
-        return cls(starts, rows, cols, weights, F.shape[0])
+        by_columns = tuple(np.empty_like(a) for a in by_rows)
+        run(lambda p: _kernels.panel_by_columns(starts, p, *by_rows, *by_columns), list(range(panels)))
+        return cls(starts, *by_columns, F.shape[0])
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
