@@ -599,28 +599,34 @@ def item_buffer_times(seen, weights, B):
 PANEL_BITS = 16  # a panel is 2^16 columns of F: its slice of B (768 KiB) stays in a core's L2 cache
 
 
+def panel_count(n_cols: int) -> int:
+    """Column panels (PANEL_BITS) of a matrix of n_cols columns."""
+    return (n_cols >> PANEL_BITS) + 1
+
+
 @nb.njit(cache=True, nogil=True)
-def panel_counts(indptr, indices, first, last, panels):
-    """(panels,) int64: the entries of CSR rows first..last-1 in each column panel
-    (PANEL_BITS): the first half of a counting sort into panel-major order (`panel_fill`)."""
+def panel_counts(indptr, indices, panels):
+    """(panels,) int64: the entries of CSR rows (indptr (R+1,), int32 columns) in each column
+    panel (PANEL_BITS): the first half of a counting sort into panel-major order (`panel_fill`)."""
     counts = np.zeros(panels, np.int64)
-    for k in range(indptr[first], indptr[last]):
+    for k in range(indptr[-1]):
         counts[indices[k] >> PANEL_BITS] += 1
     return counts
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_fill(indptr, indices, data, first, last, at, rows, cols, weights):
-    """The second half: write CSR rows first..last-1 (f32, int32 columns; at most 2^16 rows
-    in all) into a panel-major block, column panel by column panel, rows ascending within
-    a panel: rows (u16, the CSR row), cols (u16, the column within its panel) and weights
-    (f32) from position at[p] on for panel p (at: (panels,) int64, advanced in place)."""
-    for r in range(first, last):
+def panel_fill(indptr, indices, data, first_row, at, rows, cols, weights):
+    """The second half: write CSR rows (f32, int32 columns), rows first_row.. of a block of
+    at most 2^16, into the block panel-major, column panel by column panel, rows ascending
+    within a panel: rows (u16, the block's row), cols (u16, the column within its panel)
+    and weights (f32) from position at[p] on for panel p (at: (panels,) int64, advanced in
+    place)."""
+    for r in range(indptr.shape[0] - 1):
         for k in range(indptr[r], indptr[r + 1]):
             c = indices[k]
             i = at[c >> PANEL_BITS]
             at[c >> PANEL_BITS] = i + 1
-            rows[i] = r
+            rows[i] = first_row + r
             cols[i] = c & ((1 << PANEL_BITS) - 1)
             weights[i] = data[k]
 

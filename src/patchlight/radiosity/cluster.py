@@ -130,7 +130,7 @@ class RayCluster:
                 node, done[future] = ray.get(future)
                 self.tasks_per_node[node] += 1
                 if progress is not None:
-                    progress(done[future].F.shape[0])
+                    progress(len(done[future].S))
         return [done[f] for f in futures]
 
     def to_json(self) -> dict:

@@ -46,10 +46,13 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
 
 @dataclass
 class GatherRows:
-    """Rows of the gather for some patches. F: (R, N) CSR f32; S: (R, 3) f32 constant term;
+    """Rows of the gather for some patches. F: their rows of F in pieces of consecutive rows,
+    one per chunk, (R_i, N) CSR f32 each; panel_counts: (pieces, panels) int64 each piece's
+    entries in each column panel (`_kernels.panel_counts`); S: (R, 3) f32 constant term;
     back_fraction: (R,) share of rays that hit back faces; lost: rays on uncovered texels."""
 
-    F: sp.csr_matrix
+    F: list[sp.csr_matrix]
+    panel_counts: np.ndarray
     S: np.ndarray
     back_fraction: np.ndarray
     lost: int
@@ -107,16 +110,18 @@ class Gatherer:
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def gather(self, rows: np.ndarray, progress=None) -> GatherRows:
-        """Trace and resolve the rays of patches `rows` (R,) into their F rows and sky term."""
+        """Trace and resolve the rays of patches `rows` (R,) into their F rows (chunk by chunk)
+        and sky term."""
         chunks = self._chunks(rows)
         if self.cluster is not None:
             parts = self.cluster.gather(self, chunks, progress)
         else:
             parts = self.tracer.map(lambda chunk: self.gather_chunk(chunk, progress), chunks)
         if not parts:
-            return GatherRows(sp.csr_matrix((0, len(self.patches)), dtype=np.float32),
+            return GatherRows([], np.zeros((0, _kernels.panel_count(len(self.patches))), np.int64),
                               np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
-        return GatherRows(sp.vstack([p.F for p in parts], format="csr"),
+        return GatherRows([piece for p in parts for piece in p.F],
+                          np.concatenate([p.panel_counts for p in parts]),
                           np.concatenate([p.S for p in parts]),
                           np.concatenate([p.back_fraction for p in parts]),
                           sum(p.lost for p in parts))
@@ -164,9 +169,10 @@ class Gatherer:
         indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
         S += self._emission_seen(seen, hits, dirs)
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
+        counts = _kernels.panel_counts(indptr, indices, _kernels.panel_count(len(self.patches)))
         if progress is not None:
             progress(len(rows))
-        return GatherRows(F, S, back, int(np.count_nonzero(seen == LOST)))
+        return GatherRows([F], counts[None], S, back, int(np.count_nonzero(seen == LOST)))
 
     def emission_shares(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R * D,) the share of its emission each ray counts: 1 on emitters without

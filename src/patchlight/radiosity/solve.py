@@ -37,6 +37,7 @@ class FormFactors:
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
     rays_regathered: int = 0  # and again for every product once F is not kept
     rays_probed: int = 0      # probe rays that looked for patches inside geometry first
+    scratch: list = field(default_factory=list)  # PanelBlock.of's, kept from block to block
 
     def probe_back_share(self, rows: np.ndarray) -> np.ndarray:
         """(R,) the share of a few probe rays from each patch of `rows` that meet back faces:
@@ -55,8 +56,8 @@ class FormFactors:
         self.id_parts.append(rows)
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
-        if self.kept and self.nbytes + _csr_bytes(g.F) <= self.budget:
-            self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map))
+        if self.kept and self.nbytes + sum(_csr_bytes(piece) for piece in g.F) <= self.budget:
+            self.blocks.append(PanelBlock.of(g.F, g.panel_counts, self.gatherer.tracer.map, self.scratch))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -107,24 +108,24 @@ class PanelBlock:
     n_rows: int
 
     @classmethod
-    def of(cls, F: sp.csr_matrix, run) -> PanelBlock:
-        """F (R, N) CSR (R at most 2^16) reordered on `run` (Tracer.map): each span of rows
-        counts its entries per panel, then writes them where the spans before it end; then
-        each panel is put in column order."""
-        if F.shape[0] > 1 << 16:
-            raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {F.shape[0]}")
-        panels = (F.shape[1] >> _kernels.PANEL_BITS) + 1
-        spans = _kernels.spans(0, F.shape[0])
-        counts = np.array(run(lambda span: _kernels.panel_counts(F.indptr, F.indices, *span, panels), spans))
-        counts = counts.reshape(len(spans), panels)  # (spans, panels)
+    def of(cls, pieces: list[sp.csr_matrix], counts: np.ndarray, run, scratch: list) -> PanelBlock:
+        """The rows of `pieces` (CSR (R_i, N) each, one after the other, at most 2^16 rows in
+        all; counts: (pieces, panels) their `_kernels.panel_counts`) reordered on `run`
+        (Tracer.map): each piece writes its entries panel by panel where the pieces before
+        it end, into `scratch` (reused from block to block: fresh pages cost their zeroing),
+        then each panel is put in column order."""
+        n_rows = sum(piece.shape[0] for piece in pieces)
+        if n_rows > 1 << 16:
+            raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
         starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
-        at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each span's entries of each panel go
-        by_rows = (np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.uint16), np.empty(F.nnz, np.float32))
-        run(lambda k: _kernels.panel_fill(F.indptr, F.indices, F.data, *spans[k], at[k], *by_rows),
-            list(range(len(spans))))
+        at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each piece's entries of each panel go
+        first_rows = np.cumsum([0] + [piece.shape[0] for piece in pieces])
+        by_rows = _reused(scratch, int(starts[-1]))
+        run(lambda k: _kernels.panel_fill(pieces[k].indptr, pieces[k].indices, pieces[k].data, first_rows[k],
+                                          at[k], *by_rows), list(range(len(pieces))))
         by_columns = tuple(np.empty_like(a) for a in by_rows)
-        run(lambda p: _kernels.panel_by_columns(starts, p, *by_rows, *by_columns), list(range(panels)))
-        return cls(starts, *by_columns, F.shape[0])
+        run(lambda p: _kernels.panel_by_columns(starts, p, *by_rows, *by_columns), list(range(counts.shape[1])))
+        return cls(starts, *by_columns, n_rows)
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
@@ -140,6 +141,14 @@ def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
     if len(parts) != 1:
         parts[:] = [np.concatenate(parts) if parts else empty]
     return parts[0]
+
+
+def _reused(scratch: list, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows u16, cols u16, weights f32) of n entries: views of the arrays kept in `scratch`,
+    replaced by larger ones when they are too short."""
+    if not scratch or len(scratch[0]) < n:
+        scratch[:] = [np.empty(n, np.uint16), np.empty(n, np.uint16), np.empty(n, np.float32)]
+    return scratch[0][:n], scratch[1][:n], scratch[2][:n]
 
 
 def _csr_bytes(F: sp.csr_matrix) -> int:
