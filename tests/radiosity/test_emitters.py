@@ -101,3 +101,43 @@ def test_ten_thousand_emitters_light_the_floor_as_the_same_area_merged():
     assert merged.patches.position.shape == many.patches.position.shape
     np.testing.assert_allclose(b.mean(axis=0), a.mean(axis=0), rtol=1e-2)
     assert np.percentile(np.abs(b / a - 1), 90) < 0.05
+
+
+def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
+    """emitter_rays skips the texels `_faces_no_emitter` finds facing away from every emitter
+    (or behind every one): brute force over 300 points of each emitter (its corners among
+    them) and every origin must then find each pair's cos <= 0, as emitter_rays computes it,
+    also at a hair's breadth: an emitter's corner in the texel's plane, origins in an emitter's."""
+    from patchlight.radiosity._kernels import _faces_no_emitter
+
+    rng = np.random.default_rng(5)
+    culled = kept = 0
+    for case in range(400):
+        corners = rng.normal(size=(2, 3, 3)) * 3
+        em_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        em_normal /= np.linalg.norm(em_normal, axis=1, keepdims=True)
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        points = rng.normal(size=(4, 3)) * 0.01 + rng.normal(size=3) * 3
+        points -= np.outer(points @ n - (points @ n).mean(), n)  # on one plane, as a texel's points
+        if case % 4 == 1:    # an emitter's corner in the plane of the texel's points
+            points += n * (corners[0, case % 3] @ n - points[0] @ n)
+        elif case % 4 == 2:  # the texel's points in an emitter's plane
+            points -= np.outer(points @ em_normal[0] - corners[0, 0] @ em_normal[0], em_normal[0])
+        two_sided = np.array([case % 8 == 3, False])
+        lift = 1e-3 * (case % 3)
+        if not _faces_no_emitter(points, *(lift * n), *n, corners, em_normal, two_sided, np.abs(corners).max()):
+            kept += 1
+            continue
+        culled += 1
+        u, v = rng.random((2, 300))
+        u[:3], v[:3] = [0, 1, 0], [0, 0, 1]
+        u, v = np.where(u + v > 1, 1 - u, u), np.where(u + v > 1, 1 - v, v)
+        for e in range(2):
+            lights = (1 - u - v)[:, None] * corners[e, 0] + u[:, None] * corners[e, 1] + v[:, None] * corners[e, 2]
+            d = lights[:, None] - (points + lift * n)[None]
+            d /= np.linalg.norm(d, axis=2, keepdims=True)
+            cos_r, cos_l = d @ n, -(d @ em_normal[e])
+            cos_l = np.abs(cos_l) if two_sided[e] else cos_l
+            assert np.all((cos_r <= 0) | (cos_l <= 0)), case
+    assert culled > 50 and kept > 50

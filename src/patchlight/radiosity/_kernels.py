@@ -156,6 +156,47 @@ def power_heuristic(n_a, pdf_a, n_b, pdf_b):
     return a * a / (a * a + b * b) if a > 0.0 else 0.0
 
 
+CULL_MARGIN = 1e-9  # of the coordinates' size: far above rounding (~1e-15 of it), far below any geometry
+
+
+@nb.njit(cache=True)
+def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
+    """True when every emitter (corners (M, 3, 3), em_normal (M, 3), em_two_sided (M,)) lies
+    behind the plane of the texel's normal (nx, ny, nz) through its nearest ray origin (points
+    (K, 3) lifted by (lx, ly, lz)), or sees all those origins from behind its own plane (one-
+    sided), each by CULL_MARGIN of the coordinates' size (the largest |x| of the origins and
+    of the corners, `reach`) and more: then emitter_rays would find cos <= 0 at every sample,
+    whatever the rounding. Tests at most K emitters (more: False), stopping at the first in view."""
+    k_count, m = points.shape[0], corners.shape[0]
+    if m > k_count:
+        return False
+    near = np.inf
+    lo0 = lo1 = lo2 = np.inf
+    hi0 = hi1 = hi2 = -np.inf
+    for j in range(k_count):
+        ox, oy, oz = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
+        near = min(near, nx * ox + ny * oy + nz * oz)
+        lo0, lo1, lo2 = min(lo0, ox), min(lo1, oy), min(lo2, oz)
+        hi0, hi1, hi2 = max(hi0, ox), max(hi1, oy), max(hi2, oz)
+    size = max(reach, abs(lo0), abs(lo1), abs(lo2), abs(hi0), abs(hi1), abs(hi2))
+    margin = CULL_MARGIN * size
+    for e in range(m):
+        ex, ey, ez = em_normal[e, 0], em_normal[e, 1], em_normal[e, 2]
+        far = -np.inf       # the emitter's farthest point along the texel's normal
+        plane = np.inf      # the emitter's nearest corner along its own normal
+        for c in range(3):
+            far = max(far, nx * corners[e, c, 0] + ny * corners[e, c, 1] + nz * corners[e, c, 2])
+            plane = min(plane, ex * corners[e, c, 0] + ey * corners[e, c, 1] + ez * corners[e, c, 2])
+        if far < near - margin:
+            continue
+        ex, ey, ez = em_normal[e, 0], em_normal[e, 1], em_normal[e, 2]
+        top = max(ex * lo0, ex * hi0) + max(ey * lo1, ey * hi1) + max(ez * lo2, ez * hi2)  # the origins' farthest
+        if not em_two_sided[e] and top < plane - margin:
+            continue
+        return False
+    return True
+
+
 @nb.njit(cache=True, nogil=True)
 def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_normal, em_two_sided,
                  tri_uv1, width, height, index, emission, gather_rays, seed):
@@ -171,7 +212,8 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
     Returns the L rays that can carry light, packed in sample order: ray (L,) i64 sample ids
     (r * K + j), origins, dirs (L, 3) f32, tmax (L,) f32 and each ray's incident light if
     unblocked (L, 3) f32: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
-    `gather_rays` cosine rays (power heuristic). The other samples carry none.
+    `gather_rays` cosine rays (power heuristic). The other samples carry none, and a texel
+    that `_faces_no_emitter` draws none at all.
     """
     r_count, k_count = points.shape[0], points.shape[1]
     n = r_count * k_count
@@ -184,14 +226,17 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
     perm_point = np.empty(k_count, np.int64)
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
+    reach = np.abs(corners).max() if m > 0 else 0.0
     live = 0
     for r in range(r_count):
         p = rows[r]
+        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
+        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
+        if _faces_no_emitter(points[r], lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
+            continue
         key = np.int64(p) * 1000003 + seed
         _shuffle(perm_pick, key, 0)
         _shuffle(perm_point, key, k_count)
-        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
-        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
         for j in range(k_count):
             ox, oy, oz = points[r, j, 0] + lx, points[r, j, 1] + ly, points[r, j, 2] + lz
             pick = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
@@ -234,16 +279,15 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
 
 
 @nb.njit(cache=True, nogil=True)
-def unblocked_sums(value, ray, blocked, r_count, k):
-    """(R, 3) f32 per texel, the sum in order of the values (L, 3) of emitter_rays' rays
-    `ray` (L,) (sample ids r * k + j) but those `blocked` (L,) (their shadow ray met something)."""
-    out = np.zeros((r_count, 3), np.float32)
+def unblocked_sums(value, ray, blocked, k, out):
+    """Add into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
+    emitter_rays' rays `ray` (L,) (sample ids r * k + j) but those `blocked` (L,) (their
+    shadow ray met something)."""
     for q in range(ray.shape[0]):
         if not blocked[q]:
             r = ray[q] // k
             for c in range(3):
                 out[r, c] += value[q, c]
-    return out
 
 
 @nb.njit(cache=True, inline="always")

@@ -88,14 +88,16 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
     normal = np.asarray(patches.normal, np.float64)
     lift = np.asarray(lift, np.float64)
 
-    def chunk(rows):
+    out = np.zeros((len(patches), 3), np.float32)
+
+    def chunk(span):
+        rows = np.arange(*span, dtype=np.int64)
         points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
             points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
-        return _kernels.unblocked_sums(value, ray, blocked, len(rows), points.shape[1])
+        _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[span[0]:span[1]])
 
-    rows = np.arange(len(patches), dtype=np.int64)
-    parts = tracer.map(chunk, [rows[s:s + TEXELS_PER_CHUNK] for s in range(0, len(rows), TEXELS_PER_CHUNK)])
-    return np.concatenate(parts).astype(np.float32) if parts else np.zeros((0, 3), np.float32)
+    tracer.map(chunk, [(s, min(s + TEXELS_PER_CHUNK, len(patches))) for s in range(0, len(patches), TEXELS_PER_CHUNK)])
+    return out
