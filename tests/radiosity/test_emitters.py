@@ -141,3 +141,32 @@ def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
             cos_l = np.abs(cos_l) if two_sided[e] else cos_l
             assert np.all((cos_r <= 0) | (cos_l <= 0)), case
     assert culled > 50 and kept > 50
+
+
+def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that_emission():
+    """uniform_patches against `_patch_at` at 2,000 points of each triangle (its corners among
+    them) on a 16 x 16 map: a block of equal emission, a block of two, uncovered texels."""
+    from patchlight.radiosity._kernels import _patch_at, uniform_patches
+
+    index = np.full((16, 16), -1, np.int32)
+    index[2:14, 2:14] = np.arange(144).reshape(12, 12)
+    emission = np.full((144, 3), 5.0, np.float32)
+    emission[index[2:14, 9:14].ravel()] = (5.0, 5.0, 6.0)                     # columns 9..13 differ
+    rng = np.random.default_rng(3)
+    uv = np.concatenate([rng.uniform(2.5, 8.5, (40, 3, 2)),                   # inside the uniform block
+                         rng.uniform(1.5, 14.5, (40, 3, 2)),                  # across blocks or uncovered
+                         [[[2, 2], [9, 2], [2, 9]], [[3, 3], [8.999, 3], [3, 5]]]]) / 16
+    uv = uv.astype(np.float32)
+    patch = uniform_patches(uv, 16, 16, index, emission)
+    u, v = rng.random((2, 2000))
+    u[:3], v[:3] = [0, 1, 0], [0, 0, 1]
+    u, v = np.where(u + v > 1, 1 - u, u), np.where(u + v > 1, 1 - v, v)
+    for t in range(len(uv)):
+        seen = np.array([_patch_at(t, a, b, uv, 16, 16, index) for a, b in zip(u, v)])
+        reads_one = np.all(seen >= 0) and np.all(emission[seen] == emission[seen[0]])
+        if patch[t] >= 0:
+            assert reads_one and np.array_equal(emission[patch[t]], emission[seen[0]]), t
+        elif t < 40:
+            pytest.fail(f"triangle {t} lies inside the uniform block")
+    assert np.all(patch[:40] >= 0) and np.count_nonzero(patch[40:80] < 0) > 30
+    assert patch[80] == -1 and patch[81] >= 0  # the first touches texel column 9 (and 1: uncovered)

@@ -156,6 +156,37 @@ def power_heuristic(n_a, pdf_a, n_b, pdf_b):
     return a * a / (a * a + b * b) if a > 0.0 else 0.0
 
 
+UV_SLACK = 1e-6  # texels: how far a sample's lightmap UV may stray off its triangle's by rounding, and more
+
+
+@nb.njit(cache=True, nogil=True)
+def uniform_patches(uv, width, height, index, emission):
+    """(M,) i64 for each of M triangles with lightmap UVs uv (M, 3, 2) f32: a patch whose
+    emission (N, 3) every point of the triangle reads through `_patch_at` (every texel of its
+    UV bounding box, UV_SLACK wider, is covered and all emit the same), or -1 where they
+    differ; index: the (H, W) patch index."""
+    out = np.full(uv.shape[0], -1, np.int64)
+    for e in range(uv.shape[0]):
+        u_lo = min(uv[e, 0, 0], uv[e, 1, 0], uv[e, 2, 0]) * width - UV_SLACK
+        u_hi = max(uv[e, 0, 0], uv[e, 1, 0], uv[e, 2, 0]) * width + UV_SLACK
+        v_lo = min(uv[e, 0, 1], uv[e, 1, 1], uv[e, 2, 1]) * height - UV_SLACK
+        v_hi = max(uv[e, 0, 1], uv[e, 1, 1], uv[e, 2, 1]) * height + UV_SLACK
+        x0, x1 = min(max(int(np.floor(u_lo)), 0), width - 1), min(max(int(np.floor(u_hi)), 0), width - 1)
+        y0, y1 = min(max(int(np.floor(v_lo)), 0), height - 1), min(max(int(np.floor(v_hi)), 0), height - 1)
+        first = index[y0, x0]
+        same = first >= 0
+        for y in range(y0, y1 + 1):
+            for x in range(x0, x1 + 1):
+                s = index[y, x]
+                if not same or s < 0 or (emission[s, 0] != emission[first, 0] or emission[s, 1] != emission[first, 1]
+                                         or emission[s, 2] != emission[first, 2]):
+                    same = False
+                    break
+        if same:
+            out[e] = first
+    return out
+
+
 CULL_MARGIN = 1e-9  # of the coordinates' size: far above rounding (~1e-15 of it), far below any geometry
 
 
@@ -198,7 +229,7 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
 
 
 @nb.njit(cache=True, nogil=True)
-def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_normal, em_two_sided,
+def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_normal, em_two_sided, em_patch,
                  tri_uv1, width, height, index, emission, gather_rays, seed):
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
@@ -206,9 +237,10 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
     and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; density (M,) that share over the emitter's area (per
     m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
-    (M,). Sample j of a texel picks an emitter by power with its stratum of K (a per-texel
-    permutation pairs strata with points), a point uniform on it, and reads the radiance of
-    the emitter's patch there (tri_uv1, index, emission: what the gather sees).
+    (M,); em_patch (M,) their `uniform_patches`. Sample j of a texel picks an emitter by
+    power with its stratum of K (a per-texel permutation pairs strata with points), a point
+    uniform on it, and reads the radiance of the emitter's patch there (tri_uv1, index,
+    emission: what the gather sees; em_patch's, where it is not -1, is the same).
     Returns the L rays that can carry light, packed in sample order: ray (L,) i64 sample ids
     (r * K + j), origins, dirs (L, 3) f32, tmax (L,) f32 and each ray's incident light if
     unblocked (L, 3) f32: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
@@ -262,7 +294,7 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
                 cos_l = abs(cos_l)
             if cos_r <= 0.0 or cos_l <= 0.0:
                 continue
-            s = _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
+            s = em_patch[e] if em_patch[e] >= 0 else _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
             if s < 0:
                 continue
             pdf = density[e] * dist * dist / cos_l

@@ -32,7 +32,8 @@ class Emitters:
 
     triangles (M,) i32 scene triangle ids; cdf (M,) f64 cumulative share of emitted power;
     density (M,) f64 each one's share (from cdf) over its area, per m^2; corners (M, 3, 3)
-    f64; normals (M, 3) f64; two_sided (M,) bool.
+    f64; normals (M, 3) f64; two_sided (M,) bool; patch (M,) i64 a patch whose emission
+    stands for every point of the triangle, or -1 (`_kernels.uniform_patches`).
     Per scene triangle (T,): pdf_area, the density per m^2 of a next-event sample landing on
     it (0 on triangles never sampled); tri_normal (T, 3) f64; tri_two_sided (T,) bool.
     """
@@ -43,6 +44,7 @@ class Emitters:
     corners: np.ndarray
     normals: np.ndarray
     two_sided: np.ndarray
+    patch: np.ndarray
     pdf_area: np.ndarray
     tri_normal: np.ndarray
     tri_two_sided: np.ndarray
@@ -72,9 +74,11 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
     pdf_area[triangles] = share / area[triangles]
     two_sided = two_sided_triangles(scene)
     cdf = np.cumsum(share)
+    uv = np.ascontiguousarray(scene.uv1[scene.indices[triangles]], np.float32)  # as the gather's corner_uv1
     return Emitters(triangles=triangles, cdf=cdf, density=np.diff(cdf, prepend=0.0) / area[triangles],
                     corners=scene.positions[scene.indices[triangles]].astype(np.float64),
                     normals=normal[triangles].astype(np.float64), two_sided=two_sided[triangles],
+                    patch=_kernels.uniform_patches(uv, patches.width, patches.height, patches.index, patches.emission),
                     pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
 
 
@@ -94,7 +98,7 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
         rows = np.arange(*span, dtype=np.int64)
         points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
-            points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided,
+            points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
         _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[span[0]:span[1]])
