@@ -166,11 +166,10 @@ def texel_direct_light(points_of, patches: Patches, lights: list[Light], tracer:
 
         def chunk(part, n=n):
             values = point_light(points_of(n, part), patches.normal[part], sources, tracer, lift[part])
-            return _kernels.mean_over_points(values), _kernels.points_disagree(values, REFINE_SPREAD)
+            total[part] = _kernels.mean_over_points(values)
+            return _kernels.points_disagree(values, REFINE_SPREAD)
 
-        means, disagree = zip(*_over_chunks(tracer, chunk, rows, n * n))
-        total[rows] = np.concatenate(means)
-        rows = rows[np.concatenate(disagree)]
+        rows = rows[np.concatenate(_over_chunks(tracer, chunk, rows, n * n))]
         rows = _with_neighbours(patches, rows) if n == first else rows
     return total
 
