@@ -54,20 +54,16 @@ def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
         last_first.append(len(items))
         return [fn(item) for item in reversed(items)][::-1]
 
-    scratch = []
-    block = PanelBlock.of(pieces, _counts(pieces, n_cols), run, scratch)
+    block = PanelBlock.of(pieces, _counts(pieces, n_cols), run)
     assert block.n_rows == 20000 and len(block.weights) == F.nnz and last_first[0] == 5
     assert np.all(np.diff(block.starts) >= 0) and block.starts[-1] == F.nnz
     for first, last in zip(block.starts[:-1], block.starts[1:]):  # each panel in column order
         assert np.all(np.diff(block.cols[first:last].astype(np.int64)) >= 0)
     np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)
-    whole = PanelBlock.of([F], _counts([F], n_cols), run, [])  # the pieces make the block F makes alone
+    whole = PanelBlock.of([F], _counts([F], n_cols), run)  # the pieces make the block F makes alone
     for a, b in zip((block.starts, block.rows, block.cols, block.weights), (whole.starts, whole.rows, whole.cols,
                                                                             whole.weights)):
         np.testing.assert_array_equal(a, b)
-    first_two = PanelBlock.of(pieces[:2], _counts(pieces[:2], n_cols), run, scratch)  # in the longer scratch
-    np.testing.assert_allclose(first_two.times(B), F[:7000] @ B, rtol=1e-5, atol=1e-6)
-    np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)  # its own arrays, not the scratch's
 
 
 def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
@@ -79,11 +75,11 @@ def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
     def run(fn, items):
         return [fn(item) for item in items]
 
-    empty = PanelBlock.of([], _counts([], 70000), run, [])
+    empty = PanelBlock.of([], _counts([], 70000), run)
     assert empty.times(np.ones((70000, 3), np.float32)).shape == (0, 3)
     one = sp.csr_matrix(([2.0, 3.0], ([0, 0], [5, 65536])), shape=(1, 70000), dtype=np.float32)
-    block = PanelBlock.of([one], _counts([one], 70000), run, [])
+    block = PanelBlock.of([one], _counts([one], 70000), run)
     np.testing.assert_array_equal(block.times(np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
     many = sp.csr_matrix((65537, 4), dtype=np.float32)
     with pytest.raises(ValueError, match="2\\^16 rows"):
-        PanelBlock.of([many], _counts([many], 4), run, [])
+        PanelBlock.of([many], _counts([many], 4), run)

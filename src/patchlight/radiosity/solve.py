@@ -37,7 +37,6 @@ class FormFactors:
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
     rays_regathered: int = 0  # and again for every product once F is not kept
     rays_probed: int = 0      # probe rays that looked for patches inside geometry first
-    scratch: list = field(default_factory=list)  # PanelBlock.of's, kept from block to block
 
     def probe_back_share(self, rows: np.ndarray) -> np.ndarray:
         """(R,) the share of a few probe rays from each patch of `rows` that meet back faces:
@@ -57,7 +56,7 @@ class FormFactors:
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
         if self.kept and self.nbytes + sum(_csr_bytes(piece) for piece in g.F) <= self.budget:
-            self.blocks.append(PanelBlock.of(g.F, g.panel_counts, self.gatherer.tracer.map, self.scratch))
+            self.blocks.append(PanelBlock.of(g.F, g.panel_counts, self.gatherer.tracer.map))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -108,19 +107,19 @@ class PanelBlock:
     n_rows: int
 
     @classmethod
-    def of(cls, pieces: list[sp.csr_matrix], counts: np.ndarray, run, scratch: list) -> PanelBlock:
+    def of(cls, pieces: list[sp.csr_matrix], counts: np.ndarray, run) -> PanelBlock:
         """The rows of `pieces` (CSR (R_i, N) each, one after the other, at most 2^16 rows in
         all; counts: (pieces, panels) their `_kernels.panel_counts`) reordered on `run`
         (Tracer.map): each piece writes its entries panel by panel where the pieces before
-        it end, into `scratch` (reused from block to block: fresh pages cost their zeroing),
-        then each panel is put in column order."""
+        it end, then each panel is put in column order."""
         n_rows = sum(piece.shape[0] for piece in pieces)
         if n_rows > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
         starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
         at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each piece's entries of each panel go
         first_rows = np.cumsum([0] + [piece.shape[0] for piece in pieces])
-        by_rows = _reused(scratch, int(starts[-1]))
+        nnz = int(starts[-1])
+        by_rows = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
         run(lambda k: _kernels.panel_fill(pieces[k].indptr, pieces[k].indices, pieces[k].data, first_rows[k],
                                           at[k], *by_rows), list(range(len(pieces))))
         by_columns = tuple(np.empty_like(a) for a in by_rows)
@@ -141,14 +140,6 @@ def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
     if len(parts) != 1:
         parts[:] = [np.concatenate(parts) if parts else empty]
     return parts[0]
-
-
-def _reused(scratch: list, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rows u16, cols u16, weights f32) of n entries: views of the arrays kept in `scratch`,
-    replaced by larger ones when they are too short."""
-    if not scratch or len(scratch[0]) < n:
-        scratch[:] = [np.empty(n, np.uint16), np.empty(n, np.uint16), np.empty(n, np.float32)]
-    return scratch[0][:n], scratch[1][:n], scratch[2][:n]
 
 
 def _csr_bytes(F: sp.csr_matrix) -> int:
