@@ -275,18 +275,20 @@ def sub_texel_points(rows, texel_x, texel_y, triangle, position, tex, corners, r
         flat = abs(det) <= 1e-12
         safe = 1.0 if flat else det
         rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
-        for k in range(k_count):
-            dx = texel_x[p] + across[k // n] - ax
-            dy = texel_y[p] + across[k % n] - ay
-            w1 = (dx * e2y - dy * e2x) / safe
-            w2 = (e1x * dy - e1y * dx) / safe
-            w0 = 1.0 - w1 - w2
-            if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
-                for a in range(3):
-                    out[r, k, a] = position[p, a]
-            else:
-                for a in range(3):
-                    out[r, k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
+        for i in range(n):
+            dx = texel_x[p] + across[i] - ax
+            for j in range(n):
+                k = i * n + j
+                dy = texel_y[p] + across[j] - ay
+                w1 = (dx * e2y - dy * e2x) / safe
+                w2 = (e1x * dy - e1y * dx) / safe
+                w0 = 1.0 - w1 - w2
+                if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
+                    for a in range(3):
+                        out[r, k, a] = position[p, a]
+                else:
+                    for a in range(3):
+                        out[r, k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
     return out
 
 
