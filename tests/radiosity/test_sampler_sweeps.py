@@ -5,7 +5,8 @@ import pytest
 
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
-from patchlight.radiosity import _kernels, adaptive
+from patchlight.radiosity import adaptive
+from patchlight.rays import tracer
 from patchlight.scene import load_scene
 
 
@@ -18,9 +19,9 @@ def plan():
 
 @pytest.fixture
 def backwards(monkeypatch):
-    """A pool that runs small spans last first."""
-    monkeypatch.setattr(_kernels, "TASK_ROWS", 7)
-    return lambda fn, items: [fn(item) for item in items[::-1]][::-1]
+    """Tracer.over_spans on a pool that runs small spans last first."""
+    monkeypatch.setattr(tracer, "TASK_ROWS", 7)
+    return lambda fn, first, last: [fn(*span) for span in tracer.spans(first, last)[::-1]][::-1]
 
 
 def _light(n, rng):

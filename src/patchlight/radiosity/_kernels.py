@@ -497,23 +497,6 @@ def scatter_sum(G, ids, S, P):
             G[ids[k], c] = S[k, c] + P[k, c]
 
 
-TASK_ROWS = 1 << 16  # the most rows of a sweep one task of the tracer's pool takes
-MIN_TASK_ROWS = 1 << 12
-
-
-def spans(first: int, last: int) -> list[tuple[int, int]]:
-    """Rows first..last-1 as (start, stop) spans of TASK_ROWS, or quarters of the sweep (of at
-    least MIN_TASK_ROWS) when that is shorter, so that both cores share small sweeps too."""
-    size = min(TASK_ROWS, max(MIN_TASK_ROWS, -(-(last - first) // 4)))
-    return [(s, min(s + size, last)) for s in range(first, last, size)]
-
-
-def over_spans(run, fn, first: int, last: int) -> list:
-    """fn(start, stop) over the `spans` of rows first..last-1 as tasks on `run` (Tracer.map),
-    the results in order."""
-    return run(lambda span: fn(*span), spans(first, last))
-
-
 @nb.njit(cache=True, nogil=True)
 def weighted_emission(seen, shares, weights, emission):
     """(R, 3) f32: per patch, the emission (N, 3) of the patches its D rays see (seen (R * D,)

@@ -82,9 +82,9 @@ def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
     return grid, phases
 
 
-def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise: float, run) -> np.ndarray:
+def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise: float, spread) -> np.ndarray:
     """Decide every target of `step` in place in `status` (`_kernels.decide_targets`, in
-    tasks on `run`, Tracer.map); returns the ids to compute now, in the step's order.
+    spans on `spread`, Tracer.over_spans); returns the ids to compute now, in the step's order.
 
     G: (N, 3) f32 current gathered light of every decided patch. A target is interpolated
     when its neighbours' ratio (1 when both are 0, 0 when one is, else min / max) passes
@@ -93,7 +93,7 @@ def decide(step: Step, status: np.ndarray, G: np.ndarray, accuracy: float, noise
     NOISE_SIGMAS sqrt(2) of it, so the threshold never asks for more than that (a neighbour
     pair that differs only by noise is interpolated: the mean has less noise than a gather)."""
     threshold = min(accuracy ** step.spacing, 1.0 - NOISE_SIGMAS * np.sqrt(2.0) * noise)
-    parts = _kernels.over_spans(run, lambda a, b: _kernels.decide_targets(
+    parts = spread(lambda a, b: _kernels.decide_targets(
         status, G, step.targets[a:b], step.neighbours[a:b], threshold, UNDECIDED, COMPUTED, INTERPOLATED),
         0, len(step.targets))
     return np.concatenate(parts) if parts else np.zeros(0, np.int64)
@@ -109,17 +109,17 @@ def flatten(phases: list[list[Step]]) -> list[Step]:
     return [step for phase in phases for step in phase]
 
 
-def interpolate(G: np.ndarray, status: np.ndarray, order: list[Step], run) -> np.ndarray:
+def interpolate(G: np.ndarray, status: np.ndarray, order: list[Step], spread) -> np.ndarray:
     """Fill G (N, 3) in place at interpolated texels, in the sampler's order (`flatten`), each
     the mean of its neighbours. Undecided texels get the mean of whatever neighbours have
     values (a provisional estimate used while the sampler is still deciding); texels inside
-    geometry end at 0. Steps run one after another, each in tasks on `run` (Tracer.map):
+    geometry end at 0. Steps run one after another, each in spans on `spread` (Tracer.over_spans):
     a step's neighbours all belong to earlier steps, so its targets are independent."""
     have = (status == COMPUTED) | (status == INTERPOLATED)
     for step in order:
-        _kernels.over_spans(run, lambda a, b: _kernels.interpolate_targets(
+        spread(lambda a, b: _kernels.interpolate_targets(
             G, have, status, step.targets[a:b], step.neighbours[a:b], COMPUTED), 0, len(step.targets))
-    _kernels.over_spans(run, lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G))
+    spread(lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G))
     return G
 
 

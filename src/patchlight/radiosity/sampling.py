@@ -51,7 +51,7 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
                     gathered_light(ff, reflected, status, order, G, first)
                     first = len(ff.ids)
                 for step in phase:
-                    rows = adaptive.decide(step, status, G, accuracy, noise, ff.gatherer.tracer.map)
+                    rows = adaptive.decide(step, status, G, accuracy, noise, ff.gatherer.tracer.over_spans)
                     _compute(ff, rows, status, advance)
     return status, order
 

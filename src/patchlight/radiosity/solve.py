@@ -164,11 +164,11 @@ def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.nda
     carries the reflected light rho I (None: nothing is reflected yet, F (B - E) = 0 is not
     computed). Every patch is computed, a target of the sampler or inside geometry (0), so a
     G that starts at 0 is all written."""
-    run = ff.gatherer.tracer.map
+    spread = ff.gatherer.tracer.over_spans
     ids, S = ff.ids[first:], ff.S[first:]
     product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected, first)
-    _kernels.over_spans(run, lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
-    return adaptive.interpolate(G, status, order, run)
+    spread(lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
+    return adaptive.interpolate(G, status, order, spread)
 
 
 def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray,
@@ -177,22 +177,22 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     """Run passes until the relative change still to come (`change_to_come`) is below
     `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass (I is
     overwritten two passes later: keep a copy). Every sweep runs in tasks on both cores."""
-    run = ff.gatherer.tracer.map
+    spread = ff.gatherer.tracer.over_spans
     inside = status == adaptive.INSIDE
     # fresh (N, 3) buffers, their pages first touched by the pool's tasks (np.zeros_like or a
     # copy would write them all here): B starts as B0 (kept as it was) and reflected as B0 - E
     B, reflected, previous = (np.empty(emission.shape, np.float32) for _ in range(3))
     G, I = np.zeros(B.shape, np.float32), np.zeros(B.shape, np.float32)
     start = emission if B0 is None else B0
-    _kernels.over_spans(run, lambda a, b: _kernels.excident_and_reflected(
+    spread(lambda a, b: _kernels.excident_and_reflected(
         start[a:b], emission[a:b], B[a:b], reflected[a:b]), 0, len(B))
     changes = []
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
         gathered_light(ff, None if k == 1 and B0 is None else reflected, status, order, G)  # B = E: F (B - E) = 0
-        _kernels.over_spans(run, lambda a, b: _kernels.pass_light(
+        spread(lambda a, b: _kernels.pass_light(
             direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], B[a:b], reflected[a:b]), 0, len(B))
-        changes.append(1.0 if k == 1 else relative_change(I, previous, run))
+        changes.append(1.0 if k == 1 else relative_change(I, previous, spread))
         if on_pass is not None:
             on_pass(k, changes[-1], I)
         if change_to_come(changes) < tolerance:
@@ -217,9 +217,10 @@ def change_to_come(changes: list[float]) -> float:
     return float("inf") if r >= 1.0 else real[-1] * r / (1.0 - r)
 
 
-def relative_change(current: np.ndarray, previous: np.ndarray, run) -> float:
+def relative_change(current: np.ndarray, previous: np.ndarray, spread) -> float:
     """Largest per-texel change |I_k - I_k-1| / I_k, over texels brighter than a hundredth of
-    the mean (so that nearly black texels' noise does not decide); in tasks on `run`."""
+    the mean (so that nearly black texels' noise does not decide); in spans on `spread`
+    (Tracer.over_spans)."""
     floor = np.float32(1e-2 * float(current.mean()) + 1e-30)
-    return float(max(_kernels.over_spans(run, lambda a, b: _kernels.largest_relative_change(
+    return float(max(spread(lambda a, b: _kernels.largest_relative_change(
         current[a:b], previous[a:b], floor), 0, len(current)), default=0.0))

@@ -17,6 +17,8 @@ import numpy as np
 from ..errors import PatchlightError
 
 CHUNK = 65536  # rays per task: large enough to amortise the call, small enough to balance 2 cores
+TASK_ROWS = 1 << 16  # the most rows of a sweep one task takes (`spans`)
+MIN_TASK_ROWS = 1 << 12
 
 
 @nb.njit(cache=True, inline="always")
@@ -55,6 +57,14 @@ class Hits:
         """(N,) bool: True where the ray met the triangle's front face (`faces_ray`), derived
         on each read, so it follows tri, normal and directions when a caller changes them."""
         return _front_faces(self.tri, self.normal, self.directions)
+
+
+def spans(first: int, last: int, size: int | None = None) -> list[tuple[int, int]]:
+    """Rows first..last-1 as (start, stop) spans of `size` rows; by default TASK_ROWS, or
+    quarters of the rows (of at least MIN_TASK_ROWS) when that is shorter, so that both
+    cores share small sweeps too."""
+    size = size or min(TASK_ROWS, max(MIN_TASK_ROWS, -(-(last - first) // 4)))
+    return [(s, min(s + size, last)) for s in range(first, last, size)]
 
 
 def _threads() -> int:
@@ -103,10 +113,14 @@ class Tracer:
             return [fn(item) for item in items]
         return list(self._pool.map(fn, items))
 
+    def over_spans(self, fn, first: int, last: int, size: int | None = None) -> list:
+        """fn(start, stop) over rows first..last-1 cut into `spans` (of `size` rows), as
+        tasks on the pool (`map`), the results in order: how every sweep over rows is split."""
+        return self.map(lambda span: fn(*span), spans(first, last, size))
+
     def _map(self, fn, n: int, *arrays):
-        """Run fn over chunks of the row-aligned arrays; return the list of chunk results."""
-        starts = list(range(0, n, CHUNK))
-        return self.map(lambda s: fn(*(a[s:s + CHUNK] for a in arrays)), starts)
+        """fn over CHUNK-row slices of the row-aligned arrays; the list of chunk results."""
+        return self.over_spans(lambda a, b: fn(*(x[a:b] for x in arrays)), 0, n, CHUNK)
 
     def intersect_chunk(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """Closest hit of each ray, traced on the calling thread (see `intersect`)."""
