@@ -6,6 +6,22 @@ import time
 from contextlib import contextmanager
 
 
+_stop_signal: list[int] = []  # the stop signal the command line received (`stop_requested`)
+
+
+def stop_requested(number: int | None) -> None:
+    """Record a stop signal's number (None: forget it). From then on every stage that starts
+    and every bar that advances raises KeyboardInterrupt(number): the signal's own interrupt
+    was raised once, and a C extension that clears errors on its way could swallow it; the
+    command then stops at its next step instead of running to the end."""
+    _stop_signal[:] = [] if number is None else [number]
+
+
+def _check_stop() -> None:
+    if _stop_signal:
+        raise KeyboardInterrupt(_stop_signal[0])
+
+
 def _cpu_seconds() -> float:
     """CPU seconds of this process's threads and of its finished children (xatlas runs in one)."""
     t = os.times()
@@ -43,12 +59,14 @@ class Progress:
     @contextmanager
     def stage(self, name: str, total: float | None = None):
         """Time a stage; yields advance(n=1, note="") to move its bar."""
+        _check_stop()
         task = None
         if self._bar is not None:
             task = self._bar.add_task(name, total=total, note="")
         start, cpu = time.perf_counter(), _cpu_seconds()
 
         def advance(n: float = 1, note: str | None = None):
+            _check_stop()
             if task is not None:
                 fields = {} if note is None else {"note": note}
                 self._bar.update(task, advance=n, **fields)

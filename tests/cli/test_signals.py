@@ -109,6 +109,32 @@ def test_an_interrupt_dropped_in_a_del_comes_again(monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
 
 
+def test_an_interrupt_swallowed_on_its_way_stops_the_command_at_its_next_step(monkeypatch, capsys):
+    """Ctrl-C raises once; code that swallows the interrupt (as a C extension that clears
+    errors can) does not make the command run on: the next stage raises it again."""
+    from patchlight.progress import Progress
+
+    stages = []
+
+    def work(args):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
+        except BaseException:
+            pass  # swallowed
+        with Progress(quiet=True) as progress:
+            for name in ("first", "second"):
+                with progress.stage(name):
+                    stages.append(name)
+        return 0
+
+    assert run_as_command(monkeypatch, work) == 130
+    assert stages == []
+    assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
+    with Progress(quiet=True) as progress, progress.stage("after"):  # the command over, stages run again
+        pass
+
+
 def test_a_del_failing_because_of_the_interrupt_adds_no_lines(monkeypatch, capsys):
     """An object the interrupt left half built (llvmlite's, when Ctrl-C lands while numba
     compiles) fails in its __del__ as the stop unwinds: still one line, no "Exception ignored"

@@ -12,6 +12,8 @@ import signal
 import sys
 import warnings
 
+from ..progress import stop_requested
+
 
 def main(argv: list[str] | None = None) -> int:
     """Run `patchlight` with argv. None: the process's own command line; then main ends the
@@ -82,7 +84,9 @@ def _warning_line(message, *_) -> None:
 
 class _StopSignals:
     """SIGINT and SIGTERM raise KeyboardInterrupt(number) once, wherever the program is, and
-    record their number (`received`); another one while the first is being cleaned up is ignored.
+    record their number (`received`, and `progress.stop_requested`: should the interrupt be
+    swallowed, the next stage or bar raises it again); another one while the first is being
+    cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
     (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
@@ -111,6 +115,7 @@ class _StopSignals:
 
     def __exit__(self, *exc) -> None:
         if self.previous:
+            stop_requested(None)
             signal.setitimer(signal.ITIMER_REAL, 0)
             stopped_for_good = self.stopping and self.winding_down
             sys.unraisablehook = _ignore if stopped_for_good else self.previous_hook
@@ -126,6 +131,7 @@ class _StopSignals:
                 signal.setitimer(signal.ITIMER_REAL, 0.005)
                 return
             self.received = number
+            stop_requested(number)
             raise KeyboardInterrupt(number)  # the number: for a command that ends the process itself (view)
 
     def again(self, number, frame) -> None:
