@@ -118,7 +118,7 @@ def point_light(points: np.ndarray, normals: np.ndarray, sources: list, tracer: 
 def _over_chunks(tracer: Tracer, fn, rows: np.ndarray, points_per_row: int) -> list:
     """fn(chunk of rows) over chunks of about POINTS_PER_CHUNK points, on the tracer's threads."""
     size = max(1, POINTS_PER_CHUNK // max(points_per_row, 1))
-    return tracer.map(fn, [rows[s:s + size] for s in range(0, len(rows), size)])
+    return tracer.over_spans(lambda first, last: fn(rows[first:last]), 0, len(rows), size)
 
 
 def direct_light(points: np.ndarray, normals: np.ndarray, lights: list[Light], tracer: Tracer,

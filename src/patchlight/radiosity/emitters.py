@@ -94,14 +94,14 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
 
     out = np.zeros((len(patches), 3), np.float32)
 
-    def chunk(span):
-        rows = np.arange(*span, dtype=np.int64)
+    def chunk(first, last):
+        rows = np.arange(first, last, dtype=np.int64)
         points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
             points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
-        _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[span[0]:span[1]])
+        _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[first:last])
 
-    tracer.map(chunk, [(s, min(s + TEXELS_PER_CHUNK, len(patches))) for s in range(0, len(patches), TEXELS_PER_CHUNK)])
+    tracer.over_spans(chunk, 0, len(patches), TEXELS_PER_CHUNK)
     return out
