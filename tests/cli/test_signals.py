@@ -48,16 +48,24 @@ def room_bake(tmp_path_factory):
     return out
 
 
+def one_line_after_the_bars(err: str, line: str) -> bool:
+    """stderr is `line`, after the progress bars of the stages that had started, if any (with
+    fast imports a signal 0.2 s in can land in the first stage; a stderr that is not a
+    terminal gets the bars when they stop): no traceback, no other line."""
+    lines = err.strip().splitlines()
+    return lines[-1:] == [line] and all(" left " in bar for bar in lines[:-1])
+
+
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1, 0.2, 0.4])
 def test_ctrl_c_while_starting_is_one_line_and_130(tmp_path, delay):
     status, err = signalled(LONG_BAKE + [str(tmp_path / "out")], signal.SIGINT, delay)
-    assert status == 130 and err.strip() == "patchlight: interrupted; nothing partial was written", err
+    assert status == 130 and one_line_after_the_bars(err, "patchlight: interrupted; nothing partial was written"), err
     assert not (tmp_path / "out").exists()
 
 
 def test_sigterm_is_handled_like_ctrl_c(tmp_path):
     status, err = signalled(LONG_BAKE + [str(tmp_path / "out")], signal.SIGTERM, 0.3)
-    assert status == 143 and err.strip() == "patchlight: terminated; nothing partial was written", err
+    assert status == 143 and one_line_after_the_bars(err, "patchlight: terminated; nothing partial was written"), err
 
 
 @pytest.mark.parametrize("delay", [0.3, 0.5, 0.7, 0.9, 1.1])
