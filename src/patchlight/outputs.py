@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Callable, Iterator, TypeVar
 
 from .errors import PatchlightError
+from .progress import check_stop
 
 RENAME_EXCHANGE = 2      # linux/fs.h
 AT_FDCWD = -100
@@ -90,8 +91,8 @@ def _remove_stale_staging(out: Path) -> None:
 def staged_output(out_dir, stale: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield an empty staging folder; when the body returns, it replaces `out_dir` in one
     atomic step (module docstring), keeping the old folder's other files except those
-    matching the `stale` globs. If the body raises (Ctrl-C included) the staging folder goes
-    and `out_dir` is untouched."""
+    matching the `stale` globs. If the body raises (Ctrl-C included), or a stop signal came
+    (`progress.check_stop`), the staging folder goes and `out_dir` is untouched."""
     from .imaging.io import check_output_dir
 
     out = check_output_dir(out_dir).absolute()
@@ -103,6 +104,7 @@ def staged_output(out_dir, stale: tuple[str, ...] = ()) -> Iterator[Path]:
             out.parent.mkdir(parents=True, exist_ok=True)
             staging.mkdir()
             yield staging
+            check_stop()  # a stop signal whose interrupt was swallowed while the set was written
             if out.is_dir():
                 _carry_over(out, staging, stale)
             _swap_in(staging, out)

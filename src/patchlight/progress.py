@@ -2,24 +2,31 @@
 from __future__ import annotations
 
 import os
+import threading
 import time
 from contextlib import contextmanager
 
 
-_stop_signal: list[int] = []  # the stop signal the command line received (`stop_requested`)
+_stop_signal: list = []  # (number, on_raise) of the stop signal the command line received
 
 
-def stop_requested(number: int | None) -> None:
-    """Record a stop signal's number (None: forget it). From then on every stage that starts
-    and every bar that advances raises KeyboardInterrupt(number): the signal's own interrupt
-    was raised once, and a C extension that clears errors on its way could swallow it; the
-    command then stops at its next step instead of running to the end."""
-    _stop_signal[:] = [] if number is None else [number]
+def stop_requested(number: int | None, on_raise=None) -> None:
+    """Record a stop signal's number (None: forget it). From then on, in the main thread,
+    every stage that starts and every bar that advances (`check_stop`) raises
+    KeyboardInterrupt(number), after on_raise(): the signal's own interrupt was raised once,
+    and a C extension that clears errors on its way could swallow it; the command then stops
+    at its next step instead of running to the end."""
+    _stop_signal[:] = [] if number is None else [(number, on_raise)]
 
 
-def _check_stop() -> None:
-    if _stop_signal:
-        raise KeyboardInterrupt(_stop_signal[0])
+def check_stop() -> None:
+    """Raise the stop signal's interrupt again, if one came (`stop_requested`); in the main
+    thread only (a pool's task that raised it would hand it to nobody)."""
+    if _stop_signal and threading.current_thread() is threading.main_thread():
+        number, on_raise = _stop_signal[0]
+        if on_raise is not None:
+            on_raise()
+        raise KeyboardInterrupt(number)
 
 
 def _cpu_seconds() -> float:
@@ -59,14 +66,14 @@ class Progress:
     @contextmanager
     def stage(self, name: str, total: float | None = None):
         """Time a stage; yields advance(n=1, note="") to move its bar."""
-        _check_stop()
+        check_stop()
         task = None
         if self._bar is not None:
             task = self._bar.add_task(name, total=total, note="")
         start, cpu = time.perf_counter(), _cpu_seconds()
 
         def advance(n: float = 1, note: str | None = None):
-            _check_stop()
+            check_stop()
             if task is not None:
                 fields = {} if note is None else {"note": note}
                 self._bar.update(task, advance=n, **fields)

@@ -143,6 +143,65 @@ def test_an_interrupt_swallowed_on_its_way_stops_the_command_at_its_next_step(mo
         pass
 
 
+class DroppedIn:
+    """Sends `number` to the process in its __del__, where Python can only drop the interrupt."""
+
+    def __init__(self, number):
+        self.number = number
+
+    def __del__(self):
+        os.kill(os.getpid(), self.number)
+        for _ in range(1000):  # the handler runs here
+            pass
+
+
+def test_a_dropped_sigterm_raised_again_by_a_stage_still_says_terminated(monkeypatch, capsys):
+    """The next stage raises a dropped interrupt before the 5 ms re-delivery: the status
+    and the line still name the signal that came, and the cleanup after it is not cut short
+    by a second interrupt."""
+    from patchlight.progress import Progress
+
+    cleaned = []
+
+    def work(args):
+        DroppedIn(signal.SIGTERM)
+        try:
+            with Progress(quiet=True) as progress, progress.stage("next"):
+                pass
+        finally:
+            started = time.monotonic()
+            while time.monotonic() - started < 0.02:  # a 20 ms cleanup, past the re-delivery
+                pass
+            cleaned.append(True)
+        return 0
+
+    assert run_as_command(monkeypatch, work) == 143
+    assert capsys.readouterr().err.strip() == "patchlight: terminated; nothing partial was written"
+    assert cleaned == [True]
+
+
+def test_an_interrupt_swallowed_while_the_output_is_written_leaves_it_untouched(monkeypatch, capsys, tmp_path):
+    """Swallowed after the last stage (a C writer can): the new set is not swapped in, so the
+    line "nothing partial was written" stays true."""
+    from patchlight.outputs import staged_output
+
+    out = tmp_path / "bake"
+
+    def work(args):
+        with staged_output(out) as staging:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(5)
+            except BaseException:
+                pass  # swallowed
+            (staging / "lightmap.exr").write_bytes(b"written")
+        return 0
+
+    assert run_as_command(monkeypatch, work) == 130
+    assert capsys.readouterr().err.strip() == "patchlight: interrupted; nothing partial was written"
+    assert not out.exists()
+
+
 def test_a_del_failing_because_of_the_interrupt_adds_no_lines(monkeypatch, capsys):
     """An object the interrupt left half built (llvmlite's, when Ctrl-C lands while numba
     compiles) fails in its __del__ as the stop unwinds: still one line, no "Exception ignored"

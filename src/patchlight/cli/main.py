@@ -89,7 +89,8 @@ class _StopSignals:
     cleaned up is ignored.
     An interrupt Python drops where it cannot raise (a __del__, a ctypes callback such as
     llvmlite's while numba loads a kernel, an import-lock callback) comes again 5 ms later
-    (SIGALRM), as does one that lands where raising is unsafe (`_unsafe_to_raise`): in
+    (SIGALRM; unless a stage or bar raised it first), as does one that lands where raising is
+    unsafe (`_unsafe_to_raise`): in
     numba's or llvmlite's own Python code, it left their objects half built, and the process
     crashed (SIGSEGV) when it freed them. Only in the main thread (main() called from a test's thread: no handlers).
     Afterwards the handlers before it come back, or, winding down (the process ends after
@@ -99,11 +100,13 @@ class _StopSignals:
         self.winding_down = winding_down
         self.received: int | None = None
         self.stopping = False  # a signal came: the command is stopping
+        self.dropped_once = False  # the interrupt was dropped; the timer raises it again
         self.pending = signal.SIGINT
         self.previous: dict = {}
         self.previous_hook = sys.unraisablehook
 
     def __enter__(self) -> "_StopSignals":
+        stop_requested(None)
         try:
             for number, handler in ((signal.SIGINT, self.stop), (signal.SIGTERM, self.stop),
                                     (signal.SIGALRM, self.again)):
@@ -114,14 +117,17 @@ class _StopSignals:
         return self
 
     def __exit__(self, *exc) -> None:
-        if self.previous:
-            stop_requested(None)
-            signal.setitimer(signal.ITIMER_REAL, 0)
-            stopped_for_good = self.stopping and self.winding_down
-            sys.unraisablehook = _ignore if stopped_for_good else self.previous_hook
-        for number, handler in self.previous.items():
-            stop_now = self.winding_down and number != signal.SIGALRM
-            signal.signal(number, _exit_now if stop_now else handler)
+        try:
+            if self.previous:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+                stopped_for_good = self.stopping and self.winding_down
+                sys.unraisablehook = _ignore if stopped_for_good else self.previous_hook
+            for number, handler in self.previous.items():
+                stop_now = self.winding_down and number != signal.SIGALRM
+                signal.signal(number, _exit_now if stop_now else handler)
+        finally:
+            if self.previous:
+                stop_requested(None)  # last, and whatever a signal raised meanwhile
 
     def stop(self, number, frame) -> None:
         self.stopping = True
@@ -131,15 +137,27 @@ class _StopSignals:
                 signal.setitimer(signal.ITIMER_REAL, 0.005)
                 return
             self.received = number
-            stop_requested(number)
+            stop_requested(number, self.raised_again)
             raise KeyboardInterrupt(number)  # the number: for a command that ends the process itself (view)
 
     def again(self, number, frame) -> None:
-        self.stop(self.pending, frame)
+        if self.received is None:  # deferred out of numba's code
+            self.stop(self.pending, frame)
+        elif self.dropped_once:  # dropped: raise it once more, where that is safe
+            if _unsafe_to_raise(frame):
+                signal.setitimer(signal.ITIMER_REAL, 0.005)
+                return
+            self.dropped_once = False
+            raise KeyboardInterrupt(self.received)
+
+    def raised_again(self) -> None:
+        """A stage or bar raises the interrupt again (`progress.check_stop`): the timer need not."""
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        self.dropped_once = False
 
     def dropped(self, unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.received is not None:
-            self.pending, self.received = self.received, None
+            self.dropped_once = True
             signal.setitimer(signal.ITIMER_REAL, 0.005)
         elif not self.stopping:
             self.previous_hook(unraisable)
