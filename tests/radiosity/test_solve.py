@@ -83,3 +83,46 @@ def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
     many = sp.csr_matrix((65537, 4), dtype=np.float32)
     with pytest.raises(ValueError, match="2\\^16 rows"):
         PanelBlock.of([many], _counts([many], 4), run)
+
+
+@pytest.fixture(scope="module")
+def room_gatherer():
+    import numpy as np
+
+    from patchlight.atlas.raster import rasterize
+    from patchlight.atlas.uvs import ensure_lightmap_uvs
+    from patchlight.radiosity.gather import Gatherer
+    from patchlight.rays.tracer import Tracer
+    from patchlight.scene import load_scene
+
+    scene, width, height, _ = ensure_lightmap_uvs(load_scene("room"), resolution=96)
+    patches, _ = rasterize(scene, width, height)
+    rows = np.random.default_rng(0).permutation(len(patches))[:600].astype(np.int64)
+    return Gatherer(scene, patches, Tracer(scene.positions, scene.indices), "stratified", 64, 1), rows
+
+
+@pytest.mark.parametrize("kept", [True, False])  # F kept in blocks, or re-gathered for every product
+def test_the_rows_from_any_first_multiply_as_the_whole_product_does(room_gatherer, monkeypatch, kept):
+    """FormFactors.product(B, first) is the whole product's rows first.., whether first is
+    where an add() began or inside a block; gathered_light(first) updates those rows only,
+    and then equals a sweep of all rows."""
+    import numpy as np
+
+    from patchlight.radiosity import adaptive, solve
+
+    gatherer, rows = room_gatherer
+    monkeypatch.setattr(solve, "ROWS_PER_BLOCK", 100)  # several blocks per add()
+    ff = solve.FormFactors(gatherer, 1 << 40 if kept else 0)
+    status = np.full(len(gatherer.patches), adaptive.UNDECIDED, np.int8)
+    B = np.random.default_rng(1).random((len(gatherer.patches), 3), dtype=np.float32)
+    cuts = [0, 130, 131, 131, 400, 600]  # add() calls, one of them empty
+    G = np.zeros(B.shape, np.float32)
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        ff.add(rows[a:b])
+        status[rows[a:b]] = adaptive.COMPUTED
+        solve.gathered_light(ff, B, status, [], G, a)
+    assert ff.kept == kept and (len(ff.blocks) == 8 if kept else not ff.blocks)
+    whole = ff.product(B)
+    for first in (0, 50, 100, 130, 131, 250, 400, 599, 600):
+        np.testing.assert_array_equal(ff.product(B, first), whole[first:])
+    np.testing.assert_array_equal(G, solve.gathered_light(ff, B, status, [], np.zeros(B.shape, np.float32)))

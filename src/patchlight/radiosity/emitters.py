@@ -74,7 +74,7 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
     pdf_area[triangles] = share / area[triangles]
     two_sided = two_sided_triangles(scene)
     cdf = np.cumsum(share)
-    uv = np.ascontiguousarray(scene.uv1[scene.indices[triangles]], np.float32)  # as the gather's corner_uv1
+    uv = scene.triangle_uv1()[triangles]
     return Emitters(triangles=triangles, cdf=cdf, density=np.diff(cdf, prepend=0.0) / area[triangles],
                     corners=scene.positions[scene.indices[triangles]].astype(np.float64),
                     normals=normal[triangles].astype(np.float64), two_sided=two_sided[triangles],

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
 from ..rays.inside import back_share, two_sided_triangles
-from ..rays.tracer import Tracer
+from ..rays.tracer import Tracer, spans
 from ..scene.model import Scene
 from . import _kernels
 from ._kernels import BACK_FACE, LOST, SKY  # what a ray of the item buffer saw, beside a patch id
@@ -27,12 +27,6 @@ from .hemicube import multiplier_map, stratified_directions
 FLOAT32_REACH = 1e-5      # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 RAYS_PER_CHUNK = 1 << 16  # one task: ray generation, trace and item buffer on one core
 PROBE_RAYS = 16           # cosine rays that first test whether a patch lies inside geometry
-
-
-def corner_uv1(scene: Scene) -> np.ndarray:
-    """(T, 3, 2) float32 lightmap UVs of every triangle's corners: what the item buffer
-    interpolates at a hit."""
-    return np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
 
 
 def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
@@ -62,7 +56,7 @@ class Gatherer:
     """Traces gather rays for chosen patches of one scene.
 
     method: "hemicube" (size = pixels across the front face) or "stratified" (size = rays).
-    From the scene it keeps the corners' lightmap UVs (`corner_uv1`), two_sided: (T,) bool,
+    From the scene it keeps the corners' lightmap UVs (`Scene.triangle_uv1`), two_sided: (T,) bool,
     the triangles whose back faces are ordinary surfaces (doubleSided), the sky, and offset:
     how far each patch's rays start off it (`ray_offsets`).
     emitters: the scene's `Emitters` when the direct stage samples them with `nee_samples`
@@ -73,7 +67,7 @@ class Gatherer:
     def __init__(self, scene: Scene, patches: Patches, tracer: Tracer, method: str, size: int, seed: int = 1,
                  emitters: Emitters | None = None, nee_samples: int = 0):
         self.patches, self.tracer, self.sky = patches, tracer, scene.sky
-        self.tri_uv1, self.two_sided = corner_uv1(scene), two_sided_triangles(scene)
+        self.tri_uv1, self.two_sided = scene.triangle_uv1(), two_sided_triangles(scene)
         self.method, self.seed, self.offset = method, seed, ray_offsets(scene, patches)
         self.emitters, self.nee_samples = emitters, nee_samples
         self.emitting = _kernels.emitting_patches(patches.emission)
@@ -97,7 +91,7 @@ class Gatherer:
 
     def _chunks(self, rows: np.ndarray, rays_per_patch: int | None = None) -> list[np.ndarray]:
         per_chunk = max(1, RAYS_PER_CHUNK // (rays_per_patch or self.rays_per_patch))
-        return [rows[s:s + per_chunk] for s in range(0, len(rows), per_chunk)]
+        return [rows[first:last] for first, last in spans(0, len(rows), per_chunk)]
 
     def probe_back_fraction(self, rows: np.ndarray) -> np.ndarray:
         """(R,) share of PROBE_RAYS cosine rays from each patch of `rows` that hit back faces:

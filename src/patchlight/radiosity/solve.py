@@ -62,18 +62,17 @@ class FormFactors:
         return g.back_fraction
 
     def product(self, B: np.ndarray, first: int = 0) -> np.ndarray:
-        """(C - first, 3) F @ B for the computed rows first.. in `ids` order (first: where an
-        add() began)."""
+        """(C - first, 3) F @ B for the computed rows first.. in `ids` order."""
         if not self.kept:
             ids = self.ids[first:]
             self.rays_regathered += len(ids) * self.gatherer.rays_per_patch
             return self.gatherer.product(ids, B)
-        ends = np.cumsum([block.n_rows for block in self.blocks])
-        blocks = self.blocks[int(np.searchsorted(ends, first, side="right")):]
-        if not blocks:
+        ends = np.cumsum([0] + [block.n_rows for block in self.blocks])
+        k = max(int(np.searchsorted(ends, first, side="right")) - 1, 0)  # the block that holds row first
+        if k >= len(self.blocks):
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), blocks))
+        return np.concatenate(self.gatherer.tracer.map(lambda block: block.times(B), self.blocks[k:]))[first - ends[k]:]
 
     @property
     def ids(self) -> np.ndarray:
@@ -111,7 +110,7 @@ class PanelBlock:
         """The rows of `pieces` (CSR (R_i, N) each, one after the other, at most 2^16 rows in
         all; counts: (pieces, panels) their `_kernels.panel_counts`) reordered on `run`
         (Tracer.map): each piece writes its entries panel by panel where the pieces before
-        it end, then each panel is put in column order."""
+        it end, then each panel is put in column order. Empties `pieces`."""
         n_rows = sum(piece.shape[0] for piece in pieces)
         if n_rows > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
@@ -122,6 +121,7 @@ class PanelBlock:
         by_rows = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
         run(lambda k: _kernels.panel_fill(pieces[k].indptr, pieces[k].indices, pieces[k].data, first_rows[k],
                                           at[k], *by_rows), list(range(len(pieces))))
+        pieces.clear()  # let the CSR go before the column-order copy: two copies at once, not three
         by_columns = tuple(np.empty_like(a) for a in by_rows)
         run(lambda p: _kernels.panel_by_columns(starts, p, *by_rows, *by_columns), list(range(counts.shape[1])))
         return cls(starts, *by_columns, n_rows)

@@ -191,6 +191,12 @@ class Scene:
         """(T, 3, 3) f32 world-space corners."""
         return self.positions[self.indices]
 
+    def triangle_uv1(self) -> np.ndarray:
+        """(T, 3, 2) f32 (contiguous) lightmap UVs of every triangle's corners: what the ray
+        casts that look patches up (the gather's item buffer, the probes, the emitters)
+        interpolate at a hit."""
+        return np.ascontiguousarray(self.uv1[self.indices], np.float32)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounds (lo, hi), each (3,)."""
         used = self.positions[np.unique(self.indices)]

@@ -74,7 +74,7 @@ class IncidentGatherer:
         self.tracer = tracer or Tracer(scene.positions, scene.indices)
         lo, hi = scene.bounds()
         self.t_near = np.float32(T_NEAR * float(np.max(hi - lo)))
-        self.tri_uv1 = np.ascontiguousarray(scene.uv1[scene.indices], np.float32)
+        self.tri_uv1 = scene.triangle_uv1()
         materials = scene.materials
         self.tri_rho = np.array([m.base_color[:3] for m in materials], np.float32)[scene.material_ids]
         self.tri_emission = np.array([m.emissive[:3] for m in materials], np.float32)[scene.material_ids]
