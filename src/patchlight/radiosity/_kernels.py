@@ -229,14 +229,14 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
 
 
 @nb.njit(cache=True, nogil=True)
-def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_normal, em_two_sided, em_patch,
+def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_normal, em_two_sided, em_patch,
                  tri_uv1, width, height, index, emission, gather_rays, seed):
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
     and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
-    cumulative share of emitted power; density (M,) that share over the emitter's area (per
-    m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
+    cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
+    area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
     (M,); em_patch (M,) their `uniform_patches`. Sample j of a texel picks an emitter by
     power with its stratum of K (a per-texel permutation pairs strata with points), a point
     uniform on it, and reads the radiance of the emitter's patch there (tri_uv1, index,
@@ -297,7 +297,7 @@ def emitter_rays(points, normal, lift, rows, cdf, density, em_tri, corners, em_n
             s = em_patch[e] if em_patch[e] >= 0 else _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
             if s < 0:
                 continue
-            pdf = density[e] * dist * dist / cos_l
+            pdf = pdf_area[em_tri[e]] * dist * dist / cos_l
             w = power_heuristic(k_count, pdf, gather_rays, cos_r / np.pi)
             f = _divided(cos_r / (np.pi * pdf) * w, k_count, inv_k)
             ray[live] = r * k_count + j

@@ -132,7 +132,7 @@ def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.
         k = points.shape[1]
         e = emitters
         ray, origins, live_dirs, tmax, live_value = _kernels.emitter_rays(
-            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.density, e.triangles, e.corners, e.normals,
+            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals,
             e.two_sided, e.patch, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
         live_value[tracer.occluded(origins, live_dirs, tmax)] = 0.0
         dirs = np.zeros((len(part) * k, 3))

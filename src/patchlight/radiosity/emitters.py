@@ -31,16 +31,15 @@ class Emitters:
     """The emissive triangles of a scene, as next-event estimation samples them.
 
     triangles (M,) i32 scene triangle ids; cdf (M,) f64 cumulative share of emitted power;
-    density (M,) f64 each one's share (from cdf) over its area, per m^2; corners (M, 3, 3)
-    f64; normals (M, 3) f64; two_sided (M,) bool; patch (M,) i64 a patch whose emission
+    corners (M, 3, 3) f64; normals (M, 3) f64; two_sided (M,) bool; patch (M,) i64 a patch whose emission
     stands for every point of the triangle, or -1 (`_kernels.uniform_patches`).
     Per scene triangle (T,): pdf_area, the density per m^2 of a next-event sample landing on
-    it (0 on triangles never sampled); tri_normal (T, 3) f64; tri_two_sided (T,) bool.
+    it (its share as the cdf gives it, over its area; 0 on triangles never sampled), which
+    the next-event samples and the gather's MIS weights both read; tri_normal (T, 3) f64; tri_two_sided (T,) bool.
     """
 
     triangles: np.ndarray
     cdf: np.ndarray
-    density: np.ndarray
     corners: np.ndarray
     normals: np.ndarray
     two_sided: np.ndarray
@@ -70,12 +69,12 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
     power = emission.mean(axis=1) * area
     triangles = np.flatnonzero(power > 0).astype(np.int32)
     share = power[triangles] / power[triangles].sum()
-    pdf_area = np.zeros(t)
-    pdf_area[triangles] = share / area[triangles]
-    two_sided = two_sided_triangles(scene)
     cdf = np.cumsum(share)
+    pdf_area = np.zeros(t)
+    pdf_area[triangles] = np.diff(cdf, prepend=0.0) / area[triangles]
+    two_sided = two_sided_triangles(scene)
     uv = scene.triangle_uv1()[triangles]
-    return Emitters(triangles=triangles, cdf=cdf, density=np.diff(cdf, prepend=0.0) / area[triangles],
+    return Emitters(triangles=triangles, cdf=cdf,
                     corners=scene.positions[scene.indices[triangles]].astype(np.float64),
                     normals=normal[triangles].astype(np.float64), two_sided=two_sided[triangles],
                     patch=_kernels.uniform_patches(uv, patches.width, patches.height, patches.index, patches.emission),
@@ -98,7 +97,7 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
         rows = np.arange(first, last, dtype=np.int64)
         points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
-            points, normal, lift, rows, e.cdf, e.density, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
+            points, normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
         _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[first:last])
