@@ -57,11 +57,18 @@ def seam_differences(image: np.ndarray, uv_a: np.ndarray, uv_b: np.ndarray) -> n
     of the channel means; points where both sides are dark, below 1e-6, count as 0)."""
     h, w = image.shape[:2]
     pa, pb = seam_points(uv_a, uv_b, w, h)
-    flat = image.reshape(h * w, -1).astype(np.float64)
-    a = (bilinear_weights(pa, w, h) @ flat).mean(axis=1)
-    b = (bilinear_weights(pb, w, h) @ flat).mean(axis=1)
+    flat = image.reshape(h * w, -1)
+    a = _lookups(bilinear_weights(pa, w, h), flat).mean(axis=1)
+    b = _lookups(bilinear_weights(pb, w, h), flat).mean(axis=1)
     mean = 0.5 * (np.abs(a) + np.abs(b))
     return np.divide(np.abs(a - b), mean, out=np.zeros_like(mean), where=mean > 1e-6)
+
+
+def _lookups(weights: sp.csr_matrix, flat: np.ndarray) -> np.ndarray:
+    """(P, C) f64 weights (P, H W) @ flat (H W, C), reading (in float64) only the texels
+    the weights touch: not a float64 copy of the whole image."""
+    texels = np.unique(weights.indices)
+    return weights[:, texels] @ flat[texels].astype(np.float64)
 
 
 def stitch(image: np.ndarray, uv_a: np.ndarray, uv_b: np.ndarray, valid: np.ndarray) -> np.ndarray:
