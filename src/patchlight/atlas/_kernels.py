@@ -12,6 +12,7 @@ from numba import njit, prange
 # |twice the signed area| <= DEGENERATE * (longest edge)^2 makes a triangle a segment or a point.
 DEGENERATE = 1e-12
 CENTRE_SCORE = 2.0  # beats any overlap area (at most 1 texel^2)
+RASTER_BANDS = 16  # bands of texel rows rasterised in parallel
 
 
 # ----------------------------------------------------------------------------------------
@@ -96,7 +97,7 @@ def _claim(owner, best, x, y, t, score):
         owner[y, x] = t
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def rasterize_owners(tex, live, width, height):
     """Conservatively rasterise triangles into a W x H texel grid.
 
@@ -106,9 +107,22 @@ def rasterize_owners(tex, live, width, height):
     square).  Among the triangles touching a texel the owner is the first one covering the
     texel centre, else the one overlapping it most; zero-area triangles win only texels nobody
     else touches.  Returns owner (H, W) i32, -1 where no triangle touches the texel.
+    Bands of rows run in parallel, each taking the triangles in order over its own rows.
     """
-    owner = np.full((height, width), -1, np.int32)
-    best = np.full((height, width), -1.0)  # 2 = covers the centre, else overlap area, 0 = zero-area touch
+    owner = np.empty((height, width), np.int32)
+    best = np.empty((height, width))  # 2 = covers the centre, else overlap area, 0 = zero-area touch
+    bands = min(height, RASTER_BANDS)
+    for band in prange(bands):
+        first, last = band * height // bands, (band + 1) * height // bands
+        owner[first:last] = -1
+        best[first:last] = -1.0
+        _rasterize_rows(tex, live, width, first, last, owner, best)
+    return owner
+
+
+@njit(cache=True)
+def _rasterize_rows(tex, live, width, first, last, owner, best):
+    """`rasterize_owners` over texel rows first..last-1 only."""
     nx = np.empty(3)
     ny = np.empty(3)
     d = np.empty(3)
@@ -134,7 +148,7 @@ def rasterize_owners(tex, live, width, height):
             x0, x1 = int(np.floor(minx)), int(np.ceil(maxx)) - 1
             y0, y1 = int(np.floor(miny)), int(np.ceil(maxy)) - 1
         x0, x1 = max(x0, 0), min(x1, width - 1)
-        y0, y1 = max(y0, 0), min(y1, height - 1)
+        y0, y1 = max(y0, first), min(y1, last - 1)
         if x0 > x1 or y0 > y1:
             continue
         if degenerate:
@@ -156,7 +170,32 @@ def rasterize_owners(tex, live, width, height):
                     continue
                 score = CENTRE_SCORE if centre else _clipped_area(x, y, nx, ny, d, work)
                 _claim(owner, best, x, y, t, score)
-    return owner
+
+
+@njit(cache=True, parallel=True)
+def owned_texels(owner):
+    """The texels of an `owner` (H, W) i32 grid (`rasterize_owners`) that a triangle owns, in
+    (y, x) order: texel_y, texel_x, triangle (N,) i32, and index (H, W) i32, each texel's
+    row in those (-1: no owner). Rows of texels run in parallel."""
+    height, width = owner.shape
+    count = np.zeros(height + 1, np.int64)
+    for y in prange(height):
+        count[y + 1] = np.count_nonzero(owner[y] >= 0)
+    start = np.cumsum(count)
+    index = np.empty((height, width), np.int32)
+    texel_y = np.empty(start[-1], np.int32)
+    texel_x = np.empty(start[-1], np.int32)
+    triangle = np.empty(start[-1], np.int32)
+    for y in prange(height):
+        row = start[y]
+        for x in range(width):
+            if owner[y, x] >= 0:
+                index[y, x] = row
+                texel_y[row], texel_x[row], triangle[row] = y, x, owner[y, x]
+                row += 1
+            else:
+                index[y, x] = -1
+    return texel_y, texel_x, triangle, index
 
 
 @njit(cache=True)

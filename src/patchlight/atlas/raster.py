@@ -44,14 +44,12 @@ def rasterize(scene: Scene, width: int, height: int) -> tuple[Patches, np.ndarra
     width, height = int(width), int(height)
     tex = _texel_corners(scene.uv1, scene.indices, width, height)
     normal, area = face_normals(scene.positions, scene.indices)
-    texel_y, texel_x, triangle = _owned_texels(tex, area, width, height)
+    texel_y, texel_x, triangle, index = _owned_texels(tex, area, width, height)
     chart_per_triangle, _ = uv_charts(scene.uv1, scene.indices)
     position, patch_normal, rho, emission = _attributes(scene, tex, texel_y, texel_x, triangle, normal)
-    index = np.full((height, width), -1, np.int32)
-    index[texel_y, texel_x] = np.arange(len(triangle), dtype=np.int32)
     size = _texel_size(tex, area)[triangle]
-    patches = Patches(width=width, height=height, texel_y=texel_y.astype(np.int32), texel_x=texel_x.astype(np.int32),
-                      position=position, normal=patch_normal, triangle=triangle.astype(np.int32), rho=rho,
+    patches = Patches(width=width, height=height, texel_y=texel_y, texel_x=texel_x,
+                      position=position, normal=patch_normal, triangle=triangle, rho=rho,
                       emission=emission, chart=chart_per_triangle[triangle], size=size, index=index)
     return patches, chart_per_triangle
 
@@ -62,10 +60,9 @@ def _texel_corners(uv, indices, width, height) -> np.ndarray:
 
 
 def _owned_texels(tex, area, width, height):
-    """texel_y, texel_x, owner triangle (N,) of every texel a triangle of positive area touches."""
-    owner = _kernels.rasterize_owners(tex, area > 0, width, height)
-    texel_y, texel_x = np.nonzero(owner >= 0)
-    return texel_y, texel_x, owner[texel_y, texel_x]
+    """texel_y, texel_x, owner triangle (N,) i32 of every texel a triangle of positive area
+    touches, in (y, x) order, and the (H, W) i32 index of their rows (-1: untouched)."""
+    return _kernels.owned_texels(_kernels.rasterize_owners(tex, area > 0, width, height))
 
 
 def texel_surface_points(positions, indices, uv, width, height):
@@ -74,7 +71,7 @@ def texel_surface_points(positions, indices, uv, width, height):
     Returns texel_y, texel_x, triangle (N,) and barycentrics (N, 3) f64 of the triangle's corners."""
     tex = _texel_corners(uv, indices, width, height)
     _, area = face_normals(positions, indices)
-    texel_y, texel_x, triangle = _owned_texels(tex, area, width, height)
+    texel_y, texel_x, triangle, _ = _owned_texels(tex, area, width, height)
     bary = _kernels.texel_centre_barycentrics(tex, triangle.astype(np.int64), texel_y.astype(np.float64),
                                               texel_x.astype(np.float64))
     return texel_y, texel_x, triangle, bary
@@ -90,7 +87,7 @@ def _attributes(scene, tex, texel_y, texel_x, triangle, face_normal):
     data, offset, tex_w, tex_h = _stack_textures(textures)
     colors = np.zeros((0, 4), np.float32) if scene.colors is None else np.asarray(scene.colors, np.float32)
     return _kernels.texel_attributes(
-        texel_y.astype(np.int64), texel_x.astype(np.int64), triangle.astype(np.int64), tex,
+        texel_y, texel_x, triangle, tex,
         uv_boundary_edges(scene.uv1, scene.indices), np.asarray(scene.positions, np.float64), np.asarray(scene.normals, np.float64),
         np.asarray(scene.uv0, np.float64), colors, np.asarray(scene.indices, np.int64),
         face_normal.astype(np.float64), np.asarray(scene.material_ids, np.int64), base_factor, emissive_factor,
