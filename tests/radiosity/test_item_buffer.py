@@ -52,4 +52,7 @@ def test_the_emitting_bits_find_the_rays_that_see_emission():
     seen = rng.integers(_kernels.LOST, 13, 500).astype(np.int32)
     expected = (seen >= 0) & np.any(emission[np.maximum(seen, 0)] > 0, axis=1)
     assert 0 < expected.sum() < np.count_nonzero(seen >= 0)
-    assert np.array_equal(_kernels.emitting_rays(seen, _kernels.emitting_patches(emission)), expected)
+    tri, dist, dirs = np.zeros(500, np.int32), np.ones(500, np.float32), np.tile(np.float32([0, 0, 1]), (500, 1))
+    shares = _kernels.emission_shares(seen, tri, dist, dirs, dirs[:1], _kernels.emitting_patches(emission),
+                                      np.zeros(0), np.zeros((0, 3)), 0.0)  # no next-event samples: whole shares
+    assert np.array_equal(shares, expected.astype(np.float32))

@@ -26,6 +26,8 @@ def texel_ranks(index: np.ndarray) -> np.ndarray:
     the item buffer's random look-ups stay in a core's cache (a 2048 map: 1 MiB, not 16)."""
     height, width = index.shape
     covered = np.zeros((height, -(-width // TEXEL_BLOCK) * TEXEL_BLOCK), bool)
+    if covered.size >= 2**31:
+        raise ValueError("a lightmap of 2^31 texels or more: `resolve_hits` numbers texels in int32")
     covered[:, :width] = index >= 0
     if not np.array_equal(index[covered[:, :width]], np.arange(np.count_nonzero(covered), dtype=np.int32)):
         raise ValueError("patch ids do not follow their texels in (y, x) order")
@@ -55,27 +57,43 @@ def _texel_patch_typed(index, y, x):
         return lambda index, y, x: index[y, x]
 
     def ranked(index, y, x):
-        word = index[y, x // TEXEL_BLOCK]
-        bit = np.uint64(x % TEXEL_BLOCK)
-        if (word >> bit) & np.uint64(1) == 0:
-            return -1
-        below = word & ((np.uint64(1) << bit) - np.uint64(1))
-        return np.int64(word >> np.uint64(32)) + np.int64(_bit_count(below))
+        return _ranked(index[y, x // TEXEL_BLOCK], x % TEXEL_BLOCK)
     return ranked
+
+
+@nb.njit(cache=True)
+def _ranked(word, bit):
+    """The patch id of texel `bit` (0..31) of a `texel_ranks` word; -1 uncovered."""
+    bit = np.uint64(bit)
+    if (word >> bit) & np.uint64(1) == 0:
+        return -1
+    below = word & ((np.uint64(1) << bit) - np.uint64(1))
+    return np.int64(word >> np.uint64(32)) + np.int64(_bit_count(below))
 
 
 @nb.njit(cache=True, inline="always")
 def _patch_at(t, u, v, tri_uv1, width, height, index):
     """The patch under point (u, v) (barycentrics of corners 1 and 2) of triangle t: the
-    lightmap texel under its TEXCOORD_1, or the nearest covered texel of its 3 x 3
-    neighbourhood (the four sides, then the corners); LOST when none is covered.
+    lightmap texel under its TEXCOORD_1 (`_texel_at`), or the nearest covered texel of its
+    3 x 3 neighbourhood (`_patch_near`); LOST when none is covered.
     index: the (H, W) patch index or its `texel_ranks`."""
+    y, x = _texel_at(t, u, v, tri_uv1, width, height)
+    return _patch_near(index, y, x, _texel_patch(index, y, x), width, height)
+
+
+@nb.njit(cache=True, inline="always")
+def _texel_at(t, u, v, tri_uv1, width, height):
+    """(y, x) the lightmap texel of a width x height map under point (u, v) of triangle t."""
     w0 = 1.0 - u - v
     su = w0 * tri_uv1[t, 0, 0] + u * tri_uv1[t, 1, 0] + v * tri_uv1[t, 2, 0]
     sv = w0 * tri_uv1[t, 0, 1] + u * tri_uv1[t, 1, 1] + v * tri_uv1[t, 2, 1]
-    x = min(max(int(su * width), 0), width - 1)
-    y = min(max(int(sv * height), 0), height - 1)
-    found = _texel_patch(index, y, x)
+    return min(max(int(sv * height), 0), height - 1), min(max(int(su * width), 0), width - 1)
+
+
+@nb.njit(cache=True, inline="always")
+def _patch_near(index, y, x, found, width, height):
+    """`found`, the patch of texel (y, x), when it is covered (>= 0), else the patch of the
+    first covered texel of its neighbourhood: the four sides, then the corners; LOST when none."""
     for k in range(8):
         if found >= 0:
             break
@@ -95,14 +113,22 @@ def resolve_hits(tri, normal, dirs, u, v, two_sided, tri_uv1, width, height, ran
     corners; ranks: the `texel_ranks` of the (H, W) patch index.
     """
     out = np.empty(tri.shape[0], np.int32)
-    for i in range(tri.shape[0]):
+    pitch = ranks.shape[1] * TEXEL_BLOCK
+    for i in range(tri.shape[0]):  # first the texel each hit lies on, y * pitch + x (< 2^31)
         t = tri[i]
         if t < 0:
             out[i] = SKY
         elif is_back_face(t, faces_ray(normal, dirs, i), two_sided):
             out[i] = BACK_FACE
         else:
-            out[i] = _patch_at(t, u[i], v[i], tri_uv1, width, height, ranks)
+            y, x = _texel_at(t, u[i], v[i], tri_uv1, width, height)
+            out[i] = y * pitch + x
+    words = ranks.reshape(-1)
+    for i in range(out.shape[0]):  # then its patch: table reads that no branch or hit waits on
+        k = out[i]
+        if k >= 0:
+            found = _ranked(words[k // TEXEL_BLOCK], k % TEXEL_BLOCK)
+            out[i] = found if found >= 0 else _patch_near(ranks, k // pitch, k % pitch, found, width, height)
     return out
 
 
@@ -421,38 +447,51 @@ def _emits(emitting, s):
     return (emitting[s >> 3] >> (s & 7)) & 1 != 0
 
 
+@nb.njit(cache=True, inline="always")
+def _emission_share(i, tri, dist, dirs, local_dirs, pdf_area, tri_normal, nee_samples):
+    """The share (f32) of its emission gather ray i, which meets an emitting patch, counts: 1,
+    or where next-event estimation samples the triangle it hits (nee_samples > 0 per texel,
+    pdf_area > 0), its MIS weight against those samples (power heuristic; emitter_rays is
+    the other half). tri, dist: the rays' hit triangles and distances; dirs (R * D, 3);
+    local_dirs (D, 3) with z along the normal; pdf_area (T,) the next-event pdf per m^2 of
+    each triangle; tri_normal (T, 3)."""
+    t = tri[i]
+    if nee_samples > 0 and pdf_area[t] > 0.0:
+        d = local_dirs.shape[0]
+        cos_l = -(tri_normal[t, 0] * dirs[i, 0] + tri_normal[t, 1] * dirs[i, 1] + tri_normal[t, 2] * dirs[i, 2])
+        cos_l = max(abs(cos_l), 1e-12)
+        pdf = pdf_area[t] * dist[i] * dist[i] / cos_l
+        return np.float32(power_heuristic(d, local_dirs[i % d, 2] / np.pi, nee_samples, pdf))
+    return np.float32(1.0)
+
+
 @nb.njit(cache=True, nogil=True)
-def emitting_rays(seen, emitting):
-    """(R * D,) bool: the rays that see an emitting patch. seen (R * D,) as item_buffer_rows
-    takes it; emitting: `emitting_patches`."""
-    out = np.empty(seen.shape[0], np.bool_)
+def emission_shares(seen, tri, dist, dirs, local_dirs, emitting, pdf_area, tri_normal, nee_samples):
+    """(R * D,) f32: the share of its emission each gather ray counts (`_emission_share`), 0
+    for the rays that meet no emitting patch. seen (R * D,) as item_buffer_rows takes it;
+    emitting: `emitting_patches`."""
+    out = np.zeros(seen.shape[0], np.float32)
     for i in range(seen.shape[0]):
-        out[i] = seen[i] >= 0 and _emits(emitting, seen[i])
+        if seen[i] >= 0 and _emits(emitting, seen[i]):
+            out[i] = _emission_share(i, tri, dist, dirs, local_dirs, pdf_area, tri_normal, nee_samples)
     return out
 
 
 @nb.njit(cache=True, nogil=True)
-def emission_shares(seen, tri, dist, dirs, local_dirs, emitting, pdf_area, tri_normal, two_sided, nee_samples):
-    """(R * D,) f32: the share of its emission each gather ray that hits an emitting patch
-    counts (1 - 0), 0 for the other rays: its MIS weight against `nee_samples` next-event
-    samples per texel (power heuristic; emitter_rays is the other half). seen (R * D,) as
-    item_buffer_rows takes it; tri, dist: the rays' hit triangles and distances; dirs
-    (R * D, 3); local_dirs (D, 3) with z along the normal; emitting: `emitting_patches`;
-    pdf_area (T,) the next-event pdf per m^2 of each triangle (0: never sampled);
-    tri_normal (T, 3); two_sided (T,)."""
-    d = local_dirs.shape[0]
-    out = np.zeros(seen.shape[0], np.float32)
+def weighted_emission(seen, tri, dist, dirs, local_dirs, weights, emitting, emission, pdf_area, tri_normal,
+                      nee_samples):
+    """(R, 3) f32: per patch, the emission (N, 3) of the patches its D rays see, times each
+    ray's direction weight (D,) and its `emission_shares` share, summed in ray order."""
+    d = weights.shape[0]
+    out = np.zeros((seen.shape[0] // d, 3), np.float32)
     for i in range(seen.shape[0]):
         s = seen[i]
-        if s < 0 or not _emits(emitting, s):
-            continue
-        t = tri[i]
-        out[i] = 1.0
-        if pdf_area[t] > 0.0:
-            cos_l = -(tri_normal[t, 0] * dirs[i, 0] + tri_normal[t, 1] * dirs[i, 1] + tri_normal[t, 2] * dirs[i, 2])
-            cos_l = max(abs(cos_l), 1e-12)
-            pdf = pdf_area[t] * dist[i] * dist[i] / cos_l
-            out[i] = power_heuristic(d, local_dirs[i % d, 2] / np.pi, nee_samples, pdf)
+        if s >= 0 and _emits(emitting, s):
+            share = _emission_share(i, tri, dist, dirs, local_dirs, pdf_area, tri_normal, nee_samples)
+            if share != 0.0:
+                w = share * weights[i % d]
+                for c in range(3):
+                    out[i // d, c] += w * emission[s, c]
     return out
 
 
@@ -495,21 +534,6 @@ def scatter_sum(G, ids, S, P):
     for k in range(ids.shape[0]):
         for c in range(3):
             G[ids[k], c] = S[k, c] + P[k, c]
-
-
-@nb.njit(cache=True, nogil=True)
-def weighted_emission(seen, shares, weights, emission):
-    """(R, 3) f32: per patch, the emission (N, 3) of the patches its D rays see (seen (R * D,)
-    as item_buffer_rows takes it) times each ray's direction weight (D,) and share (R * D,)."""
-    d = weights.shape[0]
-    out = np.zeros((seen.shape[0] // d, 3), np.float32)
-    for i in range(seen.shape[0]):
-        s = seen[i]
-        if s >= 0 and shares[i] != 0.0:
-            w = shares[i] * weights[i % d]
-            for c in range(3):
-                out[i // d, c] += w * emission[s, c]
-    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -587,55 +611,78 @@ def zero_where(G, status, code):
 
 
 @nb.njit(cache=True, nogil=True)
+def sky_directions(seen, dirs):
+    """(K, 3) f32 the directions (of dirs (R * D, 3)) of the K rays that see the sky, in ray
+    order: `dirs[seen == SKY]` in one pass and no mask."""
+    count = 0
+    for i in range(seen.shape[0]):
+        count += seen[i] == SKY
+    out = np.empty((count, 3), np.float32)
+    k = 0
+    for i in range(seen.shape[0]):
+        if seen[i] == SKY:
+            out[k, 0], out[k, 1], out[k, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+            k += 1
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def item_buffer_rows(seen, weights, sky_radiance):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
     per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
-    Returns CSR (indptr (R+1,), indices, data; columns in first-seen order, duplicates
-    summed), the sky term (R, 3) and the share of each patch's rays that hit back faces (R,).
-    Duplicates meet in a hash table of 4 D slots (a quarter full at most: few collisions),
-    cleared per row: scratch space and work per ray stay constant however large the lightmap.
+    Returns CSR (indptr (R+1,) i32, indices, data; columns in first-seen order, duplicates
+    summed), the sky term (R, 3), the share of each patch's rays that hit back faces (R,) and
+    the number of LOST rays. Duplicates meet in a hash table of 4 D slots (a quarter full at
+    most: few collisions), each holding a patch id and where its entry is; an entry placed
+    before the row's first is a free slot, so the table is never cleared: scratch space and
+    work per ray stay constant however large the lightmap.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
     size = 1
     while size < 4 * d:
         size *= 2
-    keys = np.empty(size, np.int32)     # patch id in each slot, -1 = free
-    slots = np.empty(size, np.int64)    # where that patch's entry is in indices / data
-    indptr = np.zeros(rows + 1, np.int64)
+    table = np.full(size, -1, np.int64)  # patch id << 32 | where its entry is in indices / data
+    place = np.int64(0xFFFFFFFF)
+    indptr = np.zeros(rows + 1, np.int32)  # scipy's own index type: csr_matrix takes it as it is
     indices = np.empty(seen.shape[0], np.int32)
     data = np.empty(seen.shape[0], np.float32)
     sky = np.zeros((rows, 3), np.float32)
     back = np.zeros(rows, np.float32)
     nnz = 0
     k_sky = 0
+    lost = 0
     for r in range(rows):
-        keys[:] = -1
+        first = indptr[r]
         for j in range(d):
             s = seen[r * d + j]
             if s >= 0:
                 h = (s * 2654435761) & (size - 1)  # Knuth's multiplicative hash
-                while keys[h] != -1 and keys[h] != s:
+                while True:
+                    slot = table[h]
+                    if slot < 0 or (slot & place) < first:
+                        table[h] = (np.int64(s) << 32) | nnz
+                        indices[nnz] = s
+                        data[nnz] = weights[j]
+                        nnz += 1
+                        break
+                    if slot >> 32 == s:
+                        data[slot & place] += weights[j]
+                        break
                     h = (h + 1) & (size - 1)
-                if keys[h] == s:
-                    data[slots[h]] += weights[j]
-                else:
-                    keys[h] = s
-                    slots[h] = nnz
-                    indices[nnz] = s
-                    data[nnz] = weights[j]
-                    nnz += 1
             elif s == SKY:
                 for c in range(3):
                     sky[r, c] += weights[j] * sky_radiance[k_sky, c]
                 k_sky += 1
             elif s == BACK_FACE:
                 back[r] += 1.0
+            else:
+                lost += 1
         indptr[r + 1] = nnz
         back[r] /= d
-    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back
+    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back, lost
 
 
 @nb.njit(cache=True, nogil=True)

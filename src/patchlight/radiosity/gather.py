@@ -156,31 +156,34 @@ class Gatherer:
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
         """One chunk's rows (the unit of work a Ray task runs)."""
         seen, dirs, hits = self._see(rows, self.dirs)
-        sky = seen == SKY
-        radiance = np.zeros((np.count_nonzero(sky), 3), np.float32)
-        if self.sky is not None and len(radiance):  # compress: a tenth of dirs[sky]'s time on a mixed mask
-            radiance = self.sky.radiance(np.compress(sky, dirs, axis=0)).astype(np.float32)
-        indptr, indices, data, S, back = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        sky_dirs = _kernels.sky_directions(seen, dirs)
+        radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
+                    else np.zeros((len(sky_dirs), 3), np.float32))
+        indptr, indices, data, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance)
         S += self._emission_seen(seen, hits, dirs)
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
         counts = _kernels.panel_counts(indptr, indices, _kernels.panel_count(len(self.patches)))
         if progress is not None:
             progress(len(rows))
-        return GatherRows([F], counts[None], S, back, int(np.count_nonzero(seen == LOST)))
+        return GatherRows([F], counts[None], S, back, lost)
 
     def emission_shares(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
-        """(R * D,) the share of its emission each ray counts: 1 on emitters without
+        """(R * D,) f32 the share of its emission each ray counts: 1 on emitters without
         next-event estimation, else its MIS weight (the direct stage's `emitter_light`
         holds the rest); 0 for rays that meet no emitting patch."""
-        e = self.emitters
-        if e is None or self.nee_samples == 0:
-            return _kernels.emitting_rays(seen, self.emitting)
-        return _kernels.emission_shares(seen, hits.tri, hits.t, dirs, self.dirs, self.emitting,
-                                        e.pdf_area, e.tri_normal, e.tri_two_sided, float(self.nee_samples))
+        return _kernels.emission_shares(seen, hits.tri, hits.t, dirs, self.dirs, self.emitting, *self._next_event())
 
     def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R, 3) f32 the emitted light the rays count (`emission_shares`), weighted."""
         if not self.emits:
             return np.zeros((len(seen) // len(self.weights), 3), np.float32)
-        return _kernels.weighted_emission(seen, self.emission_shares(seen, hits, dirs), self.weights,
-                                          self.patches.emission)
+        return _kernels.weighted_emission(seen, hits.tri, hits.t, dirs, self.dirs, self.weights, self.emitting,
+                                          self.patches.emission, *self._next_event())
+
+    def _next_event(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """What the emission shares weigh against: the emitters' next-event pdf per m^2 (T,),
+        their normals (T, 3) and the samples per texel (0: the gather alone sees emitters)."""
+        e = self.emitters
+        if e is None or self.nee_samples == 0:
+            return np.zeros(0), np.zeros((0, 3)), 0.0
+        return e.pdf_area, e.tri_normal, float(self.nee_samples)
