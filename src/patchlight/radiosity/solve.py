@@ -110,7 +110,7 @@ class PanelBlock:
         """The rows of `pieces` (CSR (R_i, N) each, one after the other, at most 2^16 rows in
         all; counts: (pieces, panels) their `_kernels.panel_counts`) reordered on `run`
         (Tracer.map): each piece writes its entries panel by panel where the pieces before
-        it end, then each panel is put in column order. Empties `pieces`."""
+        it end, then each panel is put in column order in place. Empties `pieces`."""
         n_rows = sum(piece.shape[0] for piece in pieces)
         if n_rows > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
@@ -118,13 +118,12 @@ class PanelBlock:
         at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each piece's entries of each panel go
         first_rows = np.cumsum([0] + [piece.shape[0] for piece in pieces])
         nnz = int(starts[-1])
-        by_rows = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
+        entries = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
         run(lambda k: _kernels.panel_fill(pieces[k].indptr, pieces[k].indices, pieces[k].data, first_rows[k],
-                                          at[k], *by_rows), list(range(len(pieces))))
-        pieces.clear()  # let the CSR go before the column-order copy: two copies at once, not three
-        by_columns = tuple(np.empty_like(a) for a in by_rows)
-        run(lambda p: _kernels.panel_by_columns(starts, p, *by_rows, *by_columns), list(range(counts.shape[1])))
-        return cls(starts, *by_columns, n_rows)
+                                          at[k], *entries), list(range(len(pieces))))
+        pieces.clear()  # let the CSR go: at most the CSR and the entries at once
+        run(lambda p: _kernels.panel_by_columns(starts, p, *entries), list(range(counts.shape[1])))
+        return cls(starts, *entries, n_rows)
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
