@@ -177,7 +177,7 @@ def _assemble(settings, texel_y, texel_x, found, values, ao) -> NormalMap:
     channels[texel_y, texel_x, :3] = values
     if ao is not None:
         channels[texel_y, texel_x, 3] = ao
-    channels, known = dilate(channels, hit, settings.dilation)
+    known = dilate(channels, hit, settings.dilation)
     flat = (0.0, 0.0, 1.0) if settings.space == "tangent" else (0.0, 0.0, 0.0)
     normal = np.where(known[..., None], _unit(channels[..., :3].reshape(-1, 3)).reshape(shape + (3,)),
                       np.asarray(flat, np.float32))

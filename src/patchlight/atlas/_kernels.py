@@ -198,6 +198,26 @@ def owned_texels(owner):
     return texel_y, texel_x, triangle, index
 
 
+@njit(cache=True, parallel=True)
+def lightmap_texels(index, values, inside, walled):
+    """Per-patch values (N, C) as a lightmap image through the patch index (H, W) i32: image
+    (H, W, C) f32 (0 where no patch), valid (H, W) bool the texels of patches not inside
+    geometry (inside (N,) bool) and fillable (H, W) bool those of patches not walled (walled
+    (N,) bool). Rows in parallel."""
+    height, width = index.shape
+    image = np.empty((height, width, values.shape[1]), np.float32)
+    valid = np.empty((height, width), np.bool_)
+    fillable = np.empty((height, width), np.bool_)
+    for y in prange(height):
+        for x in range(width):
+            s = index[y, x]
+            for c in range(values.shape[1]):
+                image[y, x, c] = values[s, c] if s >= 0 else 0.0
+            valid[y, x] = s >= 0 and not inside[s]
+            fillable[y, x] = s >= 0 and not walled[s]
+    return image, valid, fillable
+
+
 @njit(cache=True)
 def _rasterize_segment(owner, best, t, tex, longest2, x0, x1, y0, y1):
     """Touch (score 0) the texels whose closed square meets a zero-area triangle."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..imaging.dilate import dilate
+from . import _kernels
 from .patches import Patches
 
 DILATE_TEXELS = 4  # rings grown past chart borders so bilinear filtering never reads black
@@ -19,19 +20,19 @@ def valid_texels(patches: Patches, inside: np.ndarray) -> np.ndarray:
 
 def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray,
                   walled: np.ndarray | None = None) -> np.ndarray:
-    """(H, W, 3) lightmap of incident (N, 3): texels of patches inside geometry (inside (N,)
+    """(H, W, C) lightmap of incident (N, C): texels of patches inside geometry (inside (N,)
     bool) next to valid ones filled from them (up to DILATE_TEXELS rings deep, so bilinear
     filtering at a joint reads no darkness; deeper ones stay black), but never the walled
     ones (walled (N,) bool, radiosity.sampling.walled_inside: the foot of a wall thinner than
     a texel, which would carry one side's light to the other), then grown past chart borders
     by DILATE_TEXELS rings."""
-    image = patches.to_image(incident.astype(np.float32))
+    walled = np.zeros(len(patches), bool) if walled is None else walled
+    image, valid, fillable = _kernels.lightmap_texels(patches.index, incident.astype(np.float32, copy=False), inside,
+                                                      walled)
     covered = patches.index >= 0
-    valid = valid_texels(patches, inside)
-    fillable = covered if walled is None else covered & ~patches.to_image(walled, fill=False)
-    image, valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=fillable)
+    valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=fillable)
     image[covered & ~valid] = 0.0
-    image, _ = dilate(image, covered, texels=DILATE_TEXELS)
+    dilate(image, covered, texels=DILATE_TEXELS)
     return image
 
 
