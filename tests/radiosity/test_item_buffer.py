@@ -47,12 +47,18 @@ def test_a_rank_table_needs_patch_ids_in_texel_order():
 
 def test_the_emitting_bits_find_the_rays_that_see_emission():
     rng = np.random.default_rng(3)
-    emission = rng.random((13, 3)).astype(np.float32) * (rng.random((13, 1)) < 0.4)  # 13: not whole bytes
+    n = 3 * _kernels.LINE_PATCHES + 13  # not whole bytes, nor whole lines of the second level
+    emission = np.zeros((n, 3), np.float32)
+    emission[:13] = rng.random((13, 3)) * (rng.random((13, 1)) < 0.4)
     emission[4] = [0, 0, 0.5]
-    seen = rng.integers(_kernels.LOST, 13, 500).astype(np.int32)
+    emission[n - 1, 1] = 2.0  # the last line's last patch; the lines between emit nothing
+    seen = rng.integers(_kernels.LOST, n, 5000).astype(np.int32)
+    seen[:20] = np.arange(13).repeat(2)[:20]
+    seen[20] = n - 1
     expected = (seen >= 0) & np.any(emission[np.maximum(seen, 0)] > 0, axis=1)
     assert 0 < expected.sum() < np.count_nonzero(seen >= 0)
-    tri, dist, dirs = np.zeros(500, np.int32), np.ones(500, np.float32), np.tile(np.float32([0, 0, 1]), (500, 1))
+    rays = len(seen)
+    tri, dist, dirs = np.zeros(rays, np.int32), np.ones(rays, np.float32), np.tile(np.float32([0, 0, 1]), (rays, 1))
     shares = _kernels.emission_shares(seen, tri, dist, dirs, dirs[:1], _kernels.emitting_patches(emission),
                                       np.zeros(0), np.zeros((0, 3)), 0.0)  # no next-event samples: whole shares
     assert np.array_equal(shares, expected.astype(np.float32))

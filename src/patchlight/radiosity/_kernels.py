@@ -4,7 +4,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 from llvmlite import ir
-from numba.core import types
+from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
 from ..rays.inside import is_back_face
@@ -14,6 +14,25 @@ SKY = -1        # the ray escaped: it sees the sky
 BACK_FACE = -2  # the ray hit a triangle from behind: the patch may lie inside geometry
 LOST = -3       # the hit's lightmap texel is covered by no patch
 NEIGHBOURS = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)
+
+
+PREFETCH_AHEAD = 32  # rays: how far ahead a sweep asks for the table entry a later ray reads
+
+
+@intrinsic
+def _prefetch(typingctx, array, i):
+    """Ask the CPU to bring array[i] (1-d) into its caches ahead of a read: a hint
+    (llvm.prefetch), never a fault, so i may lie outside the array."""
+    def codegen(context, builder, signature, args):
+        array_type = signature.args[0]
+        ptr = cgutils.get_item_pointer(context, builder, array_type, context.make_array(array_type)(
+            context, builder, args[0]), [args[1]], wraparound=False)
+        byte_ptr, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = builder.module.declare_intrinsic("llvm.prefetch", [byte_ptr],
+                                              ir.FunctionType(ir.VoidType(), [byte_ptr, i32, i32, i32]))
+        builder.call(fn, [builder.bitcast(ptr, byte_ptr), i32(0), i32(3), i32(1)])  # a read, kept close, data
+        return context.get_dummy_value()
+    return types.void(array, i), codegen
 
 
 TEXEL_BLOCK = 32  # texels per word of a texel-rank table (coverage bits below, rank above)
@@ -126,6 +145,8 @@ def resolve_hits(tri, normal, dirs, u, v, two_sided, tri_uv1, width, height, ran
             out[i] = y * pitch + x
     words = ranks.reshape(-1)
     for i in range(out.shape[0]):  # then its patch: table reads that no branch or hit waits on
+        if i + PREFETCH_AHEAD < out.shape[0] and out[i + PREFETCH_AHEAD] >= 0:
+            _prefetch(words, out[i + PREFETCH_AHEAD] // TEXEL_BLOCK)
         k = out[i]
         if k >= 0:
             found = _ranked(words[k // TEXEL_BLOCK], k % TEXEL_BLOCK)
@@ -435,17 +456,27 @@ def points_disagree(values, spread):
     return out
 
 
-def emitting_patches(emission: np.ndarray) -> np.ndarray:
-    """(ceil(N / 8),) u8, one bit per patch (little bit order): its emission (N, 3) is above
-    0 in some channel. 1/96 of the emission's bytes: the gather tests every ray that hits a
-    patch, and this stays in cache where the emission of a 2048 map (48 MiB) does not."""
-    return np.packbits(np.any(emission > 0, axis=1), bitorder="little")
+LINE_PATCHES = 512  # patches per bit of the second level of `emitting_patches`: one 64-byte line of the first
+
+
+def emitting_patches(emission: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which patches emit (emission (N, 3) above 0 in some channel), in two levels of bits
+    (little bit order): (ceil(N / 8),) u8 one bit per patch, 1/96 of the emission's bytes,
+    and (ceil(N / 4096),) u8 one bit per LINE_PATCHES patches, set where any of them emits.
+    The gather tests every ray that hits a patch: the second level (700 bytes at 2048) stays
+    in the nearest cache and answers alone for the patches far from any emitter."""
+    bits = np.packbits(np.any(emission > 0, axis=1), bitorder="little")
+    lines = np.zeros(-(-len(bits) // (LINE_PATCHES // 8)) * (LINE_PATCHES // 8), np.uint8)
+    lines[:len(bits)] = bits
+    return bits, np.packbits(np.any(lines.reshape(-1, LINE_PATCHES // 8), axis=1), bitorder="little")
 
 
 @nb.njit(cache=True, inline="always")
 def _emits(emitting, s):
-    """Patch s emits, by its bit in `emitting_patches`."""
-    return (emitting[s >> 3] >> (s & 7)) & 1 != 0
+    """Patch s emits, by its bits in `emitting_patches`."""
+    bits, lines = emitting
+    line = s // LINE_PATCHES
+    return (lines[line >> 3] >> (line & 7)) & 1 != 0 and (bits[s >> 3] >> (s & 7)) & 1 != 0
 
 
 @nb.njit(cache=True, inline="always")

@@ -71,7 +71,7 @@ class Gatherer:
         self.method, self.seed, self.offset = method, seed, ray_offsets(scene, patches)
         self.emitters, self.nee_samples = emitters, nee_samples
         self.emitting = _kernels.emitting_patches(patches.emission)
-        self.emits = bool(np.any(self.emitting))
+        self.emits = bool(np.any(self.emitting[1]))
         self.ranks = _kernels.texel_ranks(patches.index)
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
@@ -160,7 +160,8 @@ class Gatherer:
         radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
                     else np.zeros((len(sky_dirs), 3), np.float32))
         indptr, indices, data, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance)
-        S += self._emission_seen(seen, hits, dirs)
+        if self.emits:
+            S += self._emission_seen(seen, hits, dirs)
         F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
         counts = _kernels.panel_counts(indptr, indices, _kernels.panel_count(len(self.patches)))
         if progress is not None:
@@ -175,8 +176,6 @@ class Gatherer:
 
     def _emission_seen(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R, 3) f32 the emitted light the rays count (`emission_shares`), weighted."""
-        if not self.emits:
-            return np.zeros((len(seen) // len(self.weights), 3), np.float32)
         return _kernels.weighted_emission(seen, hits.tri, hits.t, dirs, self.dirs, self.weights, self.emitting,
                                           self.patches.emission, *self._next_event())
 
