@@ -285,7 +285,7 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
-    and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
+    and lift (N,): the patches' normals and ray lifts (f32 or f64, read as f64). Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
     area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
     (M,); em_patch (M,) their `uniform_patches`. Sample j of a texel picks an emitter by
@@ -314,8 +314,9 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     live = 0
     for r in range(r_count):
         p = rows[r]
-        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
-        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
+        nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
+        lift_p = np.float64(lift[p])
+        lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
         if _faces_no_emitter(points[r], lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
             continue
         key = np.int64(p) * 1000003 + seed
