@@ -88,7 +88,7 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
     filled as the lightmap is; points: the direct stage's atlas.raster.TexelPoints."""
     sampled = gatherer.emitters is not None and gatherer.nee_samples > 0
-    seen = solution.excident - patches.emission if sampled else solution.excident
+    seen = solution.reflected if sampled else solution.excident
     sums = gather_directions(gatherer, seen, rows, advance)
     add_direct(sums, patches, scene.baked_lights, per_light)
     if sampled:
@@ -96,14 +96,6 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
         add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows),
                      gatherer.offset, gatherer.tracer, gatherer.seed)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
-
-
-def _half_floats(a: np.ndarray, tracer: Tracer) -> np.ndarray:
-    """a (N, 3) as float16, converted in spans on the tracer's threads (NumPy's casts release
-    the GIL): a pass's copy at 2048 x 2048 took 26-48 ms on one core."""
-    out = np.empty(a.shape, np.float16)
-    tracer.over_spans(lambda first, last: np.copyto(out[first:last], a[first:last], casting="same_kind"), 0, len(a))
-    return out
 
 
 def _join_cluster(address: str | None):
@@ -151,9 +143,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             per_light = [texel_direct_light(points, patches, group,
                                             tracer, settings.falloff, sun_angle, settings.sun_samples, offset,
                                             settings.texel_samples) for group in lights]
-            direct = per_light[0].copy() if per_light else np.zeros((len(patches), 3), np.float32)
-            for more in per_light[1:]:  # in order, as np.sum over the lights would add them
-                direct += more
+            direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
             emitters = find_emitters(scene, patches)
             samples = samples_per_texel(settings.emitter_samples)
             if emitters is not None and samples > 0:
@@ -166,7 +156,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         budget = form_factor_budget(width, height, settings.max_memory, available)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
-        status, order = gather_adaptive(ff, patches, direct, settings, progress)
+        status, order, sampled = gather_adaptive(ff, patches, direct, settings, progress)
         gather_seconds = time.perf_counter() - gather_start
         inside = status == adaptive.INSIDE
         rays_before_walls = tracer.rays_traced
@@ -175,12 +165,12 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         rays_in_gather = ff.rays + ff.rays_regathered + ff.rays_probed  # what the gather stage traced
         pass_incident = []
         with progress.stage("passes", total=settings.passes) as advance:
-            def on_pass(k, change, incident):
+            def on_pass(k, change, half):
                 advance(1, note=f"pass {k}: change {change:.2e}")
-                pass_incident.append(_half_floats(incident, tracer))
+                pass_incident.append(half)
 
             solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                             settings.passes, settings.tolerance, on_pass=on_pass)
+                             settings.passes, settings.tolerance, start=sampled, on_pass=on_pass)
         with progress.stage("lightmap"):
             incident = solution.incident
             if settings.denoise:

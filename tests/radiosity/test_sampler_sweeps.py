@@ -12,16 +12,18 @@ from patchlight.scene import load_scene
 
 @pytest.fixture(scope="module")
 def plan():
-    patches = bake(load_scene("cornell"), BakeSettings(resolution=48, passes=1)).patches
+    patches = bake(load_scene("cornell"), BakeSettings(resolution=64, passes=1)).patches
     grid, phases = adaptive.sampler_plan(patches)
-    return len(patches), grid, phases
+    return len(patches), grid, phases, adaptive.flatten(phases, patches.height)
 
 
 @pytest.fixture
 def backwards(monkeypatch):
-    """Tracer.over_spans on a pool that runs small spans last first."""
+    """Tracer.over_spans on a pool that runs small spans last first; interpolations cut into
+    chunks as short as they can be."""
     monkeypatch.setattr(tracer, "TASK_ROWS", 7)
-    return lambda fn, first, last: [fn(*span) for span in tracer.spans(first, last)[::-1]][::-1]
+    monkeypatch.setattr(adaptive, "INTERPOLATION_TASKS", 1000)
+    return lambda fn, first, last, size=None: [fn(*span) for span in tracer.spans(first, last, size)[::-1]][::-1]
 
 
 def _light(n, rng):
@@ -52,7 +54,7 @@ def _decide_reference(step, status, G, threshold):
 
 
 def test_decide_in_spans_equals_one_target_after_another(plan, backwards):
-    n, grid, phases = plan
+    n, grid, phases, _ = plan
     rng = np.random.default_rng(5)
     G = _light(n, rng)
     status = np.zeros(n, np.int8)
@@ -67,19 +69,41 @@ def test_decide_in_spans_equals_one_target_after_another(plan, backwards):
             np.testing.assert_array_equal(status, expected)
 
 
-def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
-    n, grid, phases = plan
-    rng = np.random.default_rng(6)
-    status = rng.choice([adaptive.COMPUTED, adaptive.INTERPOLATED, adaptive.UNDECIDED, adaptive.INSIDE], n,
-                        p=[0.3, 0.4, 0.2, 0.1]).astype(np.int8)
-    order = adaptive.flatten(phases)
-    G = _light(n, rng)
+def _interpolate_reference(G, status, order):
+    """The interpolation, one target after another in the sampler's order."""
     expected = G.copy()
     have = (status == adaptive.COMPUTED) | (status == adaptive.INTERPOLATED)
-    for t, nbs in ((t, nbs) for step in order for t, nbs in zip(step.targets, step.neighbours)):
+    for t, nbs in ((t, nbs) for step in order.steps for t, nbs in zip(step.targets, step.neighbours)):
         if status[t] != adaptive.COMPUTED:
             valued = [expected[m].astype(np.float64) for m in nbs if m >= 0 and have[m]]
             expected[t] = np.mean(valued, axis=0) if valued else 0.0
             have[t] |= bool(valued)
     expected[status == adaptive.INSIDE] = 0.0
+    return expected
+
+
+def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
+    n, grid, phases, order = plan
+    assert order.height > 2 * (4 * order.reach[-1] + 1)  # in chunks: more than one boundary between them
+    rng = np.random.default_rng(6)
+    status = rng.choice([adaptive.COMPUTED, adaptive.INTERPOLATED, adaptive.UNDECIDED, adaptive.INSIDE], n,
+                        p=[0.3, 0.4, 0.2, 0.1]).astype(np.int8)
+    G = _light(n, rng)
+    expected = _interpolate_reference(G, status, order)
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, backwards), expected)
+
+
+def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, backwards):
+    """With no texel undecided, the interpolation leaves those inside geometry out (nothing
+    decided reads them): the same G as the full sweep, on statuses the sampler's rule made."""
+    n, grid, phases, order = plan
+    rng = np.random.default_rng(8)
+    G = _light(n, rng)
+    status = np.zeros(n, np.int8)
+    status[grid] = rng.choice([adaptive.COMPUTED, adaptive.INSIDE], len(grid), p=[0.8, 0.2])
+    for step in order.steps:
+        computed = _decide_reference(step, status, G, 0.5 ** step.spacing)
+        status[computed[rng.random(len(computed)) < 0.2]] = adaptive.INSIDE  # some found inside by their gather
+    assert not np.any(status == adaptive.UNDECIDED) and np.count_nonzero(status == adaptive.INTERPOLATED) > 100
+    expected = _interpolate_reference(G, status, order)
     np.testing.assert_array_equal(adaptive.interpolate(G, status, order, backwards), expected)

@@ -1,4 +1,5 @@
-"""The stop rule of the passes: the change still to come, from the changes so far."""
+"""The passes: the stop rule (the change still to come, from the changes so far), their sweep, and the
+products of F."""
 import math
 
 import pytest
@@ -117,12 +118,37 @@ def test_the_rows_from_any_first_multiply_as_the_whole_product_does(room_gathere
     B = np.random.default_rng(1).random((len(gatherer.patches), 3), dtype=np.float32)
     cuts = [0, 130, 131, 131, 400, 600]  # add() calls, one of them empty
     G = np.zeros(B.shape, np.float32)
+    order = adaptive.flatten([], gatherer.patches.height)  # no sampler: nothing interpolated
     for a, b in zip(cuts[:-1], cuts[1:]):
         ff.add(rows[a:b])
         status[rows[a:b]] = adaptive.COMPUTED
-        solve.gathered_light(ff, B, status, [], G, a)
+        solve.gathered_light(ff, B, status, order, G, a)
     assert ff.kept == kept and (len(ff.blocks) == 8 if kept else not ff.blocks)
     whole = ff.product(B)
     for first in (0, 50, 100, 130, 131, 250, 400, 599, 600):
         np.testing.assert_array_equal(ff.product(B, first), whole[first:])
-    np.testing.assert_array_equal(G, solve.gathered_light(ff, B, status, [], np.zeros(B.shape, np.float32)))
+    np.testing.assert_array_equal(G, solve.gathered_light(ff, B, status, order, np.zeros(B.shape, np.float32)))
+
+
+def test_the_pass_sweep_writes_numpys_float16_cast():
+    """pass_light's float16 copy of the incident light (the pass store) is NumPy's cast, bit
+    for bit: ties to even (normal and subnormal), the smallest subnormals, overflow to inf."""
+    import numpy as np
+
+    from patchlight.radiosity import _kernels
+
+    rng = np.random.default_rng(7)
+    bits = rng.integers(0, 0x7F800001, 60000, dtype=np.uint32)
+    ties = (bits & ~np.uint32(0x1FFF)) | np.uint32(0x1000)       # halfway between two normal float16
+    below = bits >> np.uint32(5) & ~np.uint32(0xFFF) | np.uint32(0x33000000)  # small: subnormal or 0
+    edges = np.float32([0, 2 ** -25, 2 ** -25 * 1.0000001, 3 * 2 ** -25, 2 ** -24, 2 ** -14 * (1 - 2 ** -11),
+                        65504, 65519.996, 65520, 1e30, np.inf]).view(np.uint32)
+    light = np.concatenate([bits, ties, below, edges]).view(np.float32)
+    light = light[:len(light) // 3 * 3].reshape(-1, 3)
+    n = len(light)
+    zeros = np.zeros((n, 3), np.float32)
+    incident, reflected, half = np.empty_like(zeros), np.empty_like(zeros), np.empty((n, 3), np.uint16)
+    _kernels.pass_light(light, zeros, np.zeros(n, bool), zeros, zeros, incident, reflected, half)
+    np.testing.assert_array_equal(incident, light)
+    with np.errstate(over="ignore"):  # the float16 of 1e30 and more is inf
+        np.testing.assert_array_equal(half, light.astype(np.float16).view(np.uint16))

@@ -166,15 +166,12 @@ def _hash_uniform(key, dim):
 
 
 @nb.njit(cache=True, inline="always")
-def _shuffle(perm, key, dim, draws):
-    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform);
-    draws (n,) i64 scratch: every swap's partner is drawn first, a loop of independent hashes."""
-    for i in range(1, perm.shape[0]):
-        draws[i] = int(_hash_uniform(key, dim + i) * (i + 1))
+def _shuffle(perm, key, dim):
+    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform)."""
     for i in range(perm.shape[0]):
         perm[i] = i
     for i in range(perm.shape[0] - 1, 0, -1):
-        j = draws[i]
+        j = int(_hash_uniform(key, dim + i) * (i + 1))
         perm[i], perm[j] = perm[j], perm[i]
 
 
@@ -285,7 +282,7 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
-    and lift (N,): the patches' normals and ray lifts (f32 or f64, read as f64). Emitters (M of them): cdf (M,) their
+    and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
     area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
     (M,); em_patch (M,) their `uniform_patches`. Sample j of a texel picks an emitter by
@@ -307,21 +304,19 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     value = np.empty((n, 3), np.float32)
     perm_pick = np.empty(k_count, np.int64)
     perm_point = np.empty(k_count, np.int64)
-    draws = np.empty(k_count, np.int64)
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
     reach = np.abs(corners).max() if m > 0 else 0.0
     live = 0
     for r in range(r_count):
         p = rows[r]
-        nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
-        lift_p = np.float64(lift[p])
-        lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
+        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
+        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
         if _faces_no_emitter(points[r], lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
             continue
         key = np.int64(p) * 1000003 + seed
-        _shuffle(perm_pick, key, 0, draws)
-        _shuffle(perm_point, key, k_count, draws)
+        _shuffle(perm_pick, key, 0)
+        _shuffle(perm_point, key, k_count)
         for j in range(k_count):
             ox, oy, oz = points[r, j, 0] + lx, points[r, j, 1] + ly, points[r, j, 2] + lz
             pick = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
@@ -366,13 +361,11 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
 @nb.njit(cache=True, nogil=True)
 def unblocked_sums(value, ray, blocked, k, out):
     """Add into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
-    emitter_rays' rays `ray` (L,) (sample ids r * k + j, ascending) but those `blocked` (L,)
-    (their shadow ray met something)."""
-    r, end = 0, k  # the texel of ray q, and its samples' end: no division per ray
+    emitter_rays' rays `ray` (L,) (sample ids r * k + j) but those `blocked` (L,) (their
+    shadow ray met something)."""
     for q in range(ray.shape[0]):
         if not blocked[q]:
-            while ray[q] >= end:
-                r, end = r + 1, end + k
+            r = ray[q] // k
             for c in range(3):
                 out[r, c] += value[q, c]
 
@@ -414,18 +407,15 @@ def sun_rays(origins, cos, dirs):
 @nb.njit(cache=True, nogil=True)
 def add_sun_light(total, cos, ray, blocked, light):
     """Add to total (N, K, 3) f64 a sun's light (3,) at each point: the mean over the point's
-    sun_rays (ray (L,), their ids, ascending) of cos where the ray is not `blocked` (L,), times
-    light / pi. cos (N, S)."""
+    sun_rays of cos where the ray is not `blocked` (L,), times light / pi. cos (N, S)."""
     n, k = total.shape[0], total.shape[1]
     point, direction = _sun_deal(cos.shape[1], k)
     j_count = point.shape[0]
     visible = np.zeros((n, k))
-    i, start = 0, 0  # the texel of ray q and its first ray id (ids ascend): no division per ray
     for q in range(ray.shape[0]):
         if not blocked[q]:
-            while ray[q] >= start + j_count:
-                i, start = i + 1, start + j_count
-            j = ray[q] - start
+            i = ray[q] // j_count
+            j = ray[q] - i * j_count
             visible[i, point[j]] += cos[i, direction[j]]
     count = np.bincount(point)  # each point's rays
     for i in range(n):
@@ -537,26 +527,50 @@ def weighted_emission(seen, tri, dist, dirs, local_dirs, weights, emitting, emis
     return out
 
 
+HALF_SUBNORMAL_MAGIC = np.float32(0.5)  # 2^-1: added to |x| < 2^-14, rounds it to a multiple of 2^-24, float16's last bit
+
+
+@nb.njit(cache=True, inline="always")
+def half_bits(x):
+    """The bits (u16) of the float16 nearest to the f32 x, ties to even: what NumPy's cast
+    to float16 gives (overflow to inf; NaN stays NaN). Both ways are computed and one picked:
+    normal results round by adding 0xFFF (+1 when the kept mantissa is odd) below the kept
+    13 bits; subnormal ones by the float addition of a power of two that leaves 2^-24 as
+    its last bit."""
+    f = np.int64(np.float32(x).view(np.uint32))
+    sign = (f >> 16) & 0x8000
+    a = f & 0x7FFFFFFF
+    normal = (a - (112 << 23) + 0xFFF + ((a >> 13) & 1)) >> 13  # exponent rebiased from 127 to 15
+    rounded = np.float32(np.uint32(a).view(np.float32) + HALF_SUBNORMAL_MAGIC)  # |x| + 2^-1, added in f32
+    subnormal = np.int64(rounded.view(np.uint32)) - (126 << 23)
+    out = subnormal if a < (113 << 23) else normal
+    if a >= (143 << 23):  # |x| >= 2^16: inf, or NaN
+        out = 0x7E00 if a > 0x7F800000 else 0x7C00
+    return np.uint16(sign | out)
+
+
 @nb.njit(cache=True, nogil=True)
-def pass_light(direct, gathered, inside, rho, emission, incident, excident, reflected):
-    """One pass's light from its gathered light G (n, 3) f32, written into the (n, 3) f32
-    outputs: incident I = D + G (0 at texels `inside` geometry), excident B = rho I + E,
-    and the reflected light B - E that the next pass gathers, in one sweep."""
+def pass_light(direct, gathered, inside, rho, emission, incident, reflected, half):
+    """One pass's light from its gathered light G (n, 3) f32, written into the (n, 3)
+    outputs in one sweep: incident I = D + G (0 at texels `inside` geometry), the reflected
+    light (rho I + E) - E that the next pass gathers (the excident light less the emission,
+    as `excident` rounds it), and, unless half is (0, 3), I's float16 bits (u16, `half_bits`)."""
+    keep_half = half.shape[0] > 0
     for i in range(direct.shape[0]):
         for c in range(3):
             light = np.float32(0.0) if inside[i] else direct[i, c] + gathered[i, c]
             incident[i, c] = light
-            excident[i, c] = rho[i, c] * light + emission[i, c]
-            reflected[i, c] = excident[i, c] - emission[i, c]
+            reflected[i, c] = (rho[i, c] * light + emission[i, c]) - emission[i, c]
+            if keep_half:
+                half[i, c] = half_bits(light)
 
 
 @nb.njit(cache=True, nogil=True)
-def excident_and_reflected(start, emission, excident, reflected):
-    """The outputs (n, 3) f32: excident = start, reflected = start - emission."""
-    for i in range(start.shape[0]):
+def excident(incident, rho, emission, out):
+    """out (n, 3) f32 = rho I + E: the excident light of incident light I (n, 3) f32."""
+    for i in range(incident.shape[0]):
         for c in range(3):
-            excident[i, c] = start[i, c]
-            reflected[i, c] = start[i, c] - emission[i, c]
+            out[i, c] = rho[i, c] * incident[i, c] + emission[i, c]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -578,28 +592,51 @@ def scatter_sum(G, ids, S, P):
             G[ids[k], c] = S[k, c] + P[k, c]
 
 
+BAND_ROWS = 16  # lightmap rows of G an interpolation's wavefront advances by: with the rows behind it, they stay in cache
+
+
 @nb.njit(cache=True, nogil=True)
-def interpolate_targets(G, have, status, targets, neighbours, computed):
-    """Fill G (N, 3) in place at every non-computed target (K,) with the mean of its
-    neighbours (K, 2 or 4; -1 = none) that `have` (N,) bool values, and mark it in `have`; none -> 0."""
-    for k in range(targets.shape[0]):
-        t = targets[k]
-        if status[t] == computed:
-            continue
-        count = 0
-        acc0 = acc1 = acc2 = 0.0
-        for j in range(neighbours.shape[1]):
-            n = neighbours[k, j]
-            if n >= 0 and have[n]:
-                acc0 += G[n, 0]
-                acc1 += G[n, 1]
-                acc2 += G[n, 2]
-                count += 1
-        if count > 0:
-            G[t, 0], G[t, 1], G[t, 2] = acc0 / count, acc1 / count, acc2 / count
-            have[t] = True
-        else:
-            G[t, 0] = G[t, 1] = G[t, 2] = 0.0
+def interpolate_rows(G, have, status, targets, neighbours, starts, nb_starts, widths, row_starts, reach, lo, hi,
+                     computed, skipped):
+    """Fill G (N, 3) in place at the targets of each step s of the sampler's order
+    (`adaptive.Order`: targets, neighbours, starts, nb_starts, widths, row_starts and reach)
+    on rows lo[s]..hi[s] - 1 (lo, hi (S,) i64), but those whose status (N,) is `computed` or
+    `skipped`: each the mean of its neighbours (-1 = none) that `have` (N,) bool values,
+    then marked in `have`; none -> 0. A wavefront: band after band of BAND_ROWS rows, step s
+    runs reach[s] rows behind the band's end, so the rows of the earlier steps it reads are
+    done (a target's neighbours belong to earlier steps, its rise rows away) and in cache."""
+    n_steps = lo.shape[0]
+    done = np.empty(n_steps, np.int64)
+    for s in range(n_steps):
+        done[s] = row_starts[s, lo[s]]
+    last = hi.max() + reach.max()
+    r = lo.min()
+    while r < last:
+        r = min(r + BAND_ROWS, last)
+        for s in range(n_steps):
+            end = row_starts[s, min(max(r - reach[s], lo[s]), hi[s])]
+            width = widths[s]
+            at = nb_starts[s] + (done[s] - starts[s]) * width
+            for k in range(done[s], end):
+                t = targets[k]
+                if status[t] != computed and status[t] != skipped:
+                    count = 0
+                    acc0 = acc1 = acc2 = 0.0
+                    for j in range(width):
+                        n = neighbours[at + j]
+                        if n >= 0 and have[n]:
+                            acc0 += G[n, 0]
+                            acc1 += G[n, 1]
+                            acc2 += G[n, 2]
+                            count += 1
+                    if count > 0:
+                        G[t, 0], G[t, 1], G[t, 2] = acc0 / count, acc1 / count, acc2 / count
+                        have[t] = True
+                    else:
+                        G[t, 0] = G[t, 1] = G[t, 2] = 0.0
+                at += width
+            done[s] = max(done[s], end)
+    return None
 
 
 @nb.njit(cache=True, inline="always")

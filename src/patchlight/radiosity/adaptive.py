@@ -38,13 +38,17 @@ def gather_noise(rays: int) -> float:
 
 @dataclass
 class Step:
-    """One pass of the sampler: texels `targets` (K,) each with neighbours `neighbours`
-    (K, 2 or 4) patch ids, -1 where the neighbour is missing, uncovered or in another chart.
-    spacing: the round's spacing (4 or 2), for the threshold."""
+    """One pass of the sampler: texels `targets` (K,) i32 patch ids, ascending, each with
+    neighbours `neighbours` (K, 2 or 4) i32 patch ids, -1 where the neighbour is missing,
+    uncovered or in another chart. spacing: the round's spacing (4 or 2), for the threshold;
+    rise: the rows between a target and its farthest neighbour; row_starts (H + 1,) i64:
+    where the targets of each lightmap row begin (the last: K)."""
 
     targets: np.ndarray
     neighbours: np.ndarray
     spacing: int
+    rise: int
+    row_starts: np.ndarray
 
 
 def _ids_at(p: Patches, y: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -60,7 +64,8 @@ def _step(p: Patches, y: np.ndarray, x: np.ndarray, select, offsets, spacing: in
     ty, tx = y[targets], x[targets]
     nbs = np.stack([_ids_at(p, ty + dy, tx + dx) for dy, dx in offsets], axis=1)
     same_chart = np.where(nbs >= 0, p.chart[np.maximum(nbs, 0)] == p.chart[targets][:, None], False)
-    return Step(targets, np.where(same_chart, nbs, -1), spacing)
+    return Step(targets.astype(np.int32), np.where(same_chart, nbs, -1).astype(np.int32), spacing,
+                max(abs(dy) for dy, _ in offsets), np.searchsorted(ty, np.arange(p.height + 1)))
 
 
 def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
@@ -104,22 +109,75 @@ def reopen(status: np.ndarray) -> None:
     status[status == INTERPOLATED] = UNDECIDED
 
 
-def flatten(phases: list[list[Step]]) -> list[Step]:
-    """Every step in the sampler's order: its interpolation order."""
-    return [step for phase in phases for step in phase]
+@dataclass
+class Order:
+    """The sampler's steps in their order (the interpolation's), as flat arrays for
+    `_kernels.interpolate_rows`: step s's targets are targets[starts[s]:starts[s + 1]] (i32),
+    its neighbours neighbours[nb_starts[s]:nb_starts[s + 1]] (i32, widths[s] per target),
+    row_starts (S, H + 1) i64 where each lightmap row's targets of each step begin in
+    `targets`, and reach (S,) the rows around a texel that its value at step s depends on
+    (the steps' rises summed up to s). The steps' arrays are views of these."""
+
+    steps: list[Step]
+    height: int
+    targets: np.ndarray
+    neighbours: np.ndarray
+    starts: np.ndarray
+    nb_starts: np.ndarray
+    widths: np.ndarray
+    row_starts: np.ndarray
+    reach: np.ndarray
 
 
-def interpolate(G: np.ndarray, status: np.ndarray, order: list[Step], spread) -> np.ndarray:
-    """Fill G (N, 3) in place at interpolated texels, in the sampler's order (`flatten`), each
-    the mean of its neighbours. Undecided texels get the mean of whatever neighbours have
-    values (a provisional estimate used while the sampler is still deciding); texels inside
-    geometry end at 0. Steps run one after another, each in spans on `spread` (Tracer.over_spans):
-    a step's neighbours all belong to earlier steps, so its targets are independent."""
+def flatten(phases: list[list[Step]], height: int) -> Order:
+    """Every step in the sampler's order, its interpolation order, on a lightmap of `height`
+    rows; the steps' arrays become views of the Order's."""
+    steps = [step for phase in phases for step in phase]
+    counts = np.array([len(step.targets) for step in steps], np.int64)
+    widths = np.array([step.neighbours.shape[1] for step in steps], np.int64)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    nb_starts = np.concatenate([[0], np.cumsum(counts * widths)])
+    targets = np.concatenate([step.targets for step in steps] or [np.zeros(0, np.int32)])
+    neighbours = np.concatenate([step.neighbours.ravel() for step in steps] or [np.zeros(0, np.int32)])
+    row_starts = np.array([step.row_starts + start for step, start in zip(steps, starts)], np.int64).reshape(
+        len(steps), height + 1)
+    for s, step in enumerate(steps):
+        step.targets = targets[starts[s]:starts[s + 1]]
+        step.neighbours = neighbours[nb_starts[s]:nb_starts[s + 1]].reshape(-1, widths[s])
+    reach = np.cumsum([step.rise for step in steps], dtype=np.int64)
+    return Order(steps, height, targets, neighbours, starts, nb_starts, widths, row_starts, reach)
+
+
+INTERPOLATION_TASKS = 4  # row chunks an interpolation is cut into: more than the cores, so a busy core holds up less
+
+
+def interpolate(G: np.ndarray, status: np.ndarray, order: Order, spread) -> np.ndarray:
+    """Fill G (N, 3) in place at interpolated texels, in the sampler's order, each the mean of
+    its neighbours. Undecided texels get the mean of whatever neighbours have values (a
+    provisional estimate used while the sampler is still deciding); texels inside geometry
+    end at 0. A texel's value at step s depends only on rows within order.reach[s] of it, so
+    chunks of rows run as tasks on `spread` (Tracer.over_spans) at once, each but for the
+    bands of rows around its edges, then those bands, at once too; a task takes every step
+    over its rows in a wavefront (`_kernels.interpolate_rows`)."""
     have = (status == COMPUTED) | (status == INTERPOLATED)
-    for step in order:
-        spread(lambda a, b: _kernels.interpolate_targets(
-            G, have, status, step.targets[a:b], step.neighbours[a:b], COMPUTED), 0, len(step.targets))
-    spread(lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G))
+    if order.steps:
+        height, reach = order.height, order.reach
+        rows = max(-(-height // INTERPOLATION_TASKS), 4 * int(reach[-1]) + 1)  # a chunk is taller than 2 reaches
+        # only an undecided texel reads a texel inside geometry (those decided have decided neighbours): without
+        # any, those inside are left to their 0
+        skipped = -1 if np.any(status == UNDECIDED) else INSIDE
+
+        def run(lo, hi):
+            lo = np.minimum(lo, height)
+            _kernels.interpolate_rows(G, have, status, order.targets, order.neighbours, order.starts, order.nb_starts,
+                                      order.widths, order.row_starts, reach, lo, np.clip(hi, lo, height), COMPUTED,
+                                      skipped)
+
+        spread(lambda first, last: run(np.where(first > 0, first + reach, 0),
+                                       np.where(last < height, last - reach, height)), 0, height, rows)
+        spread(lambda first, last: run(np.maximum(first - reach, 0), np.minimum(first + reach, height))
+               if first > 0 else None, 0, height, rows)
+    spread(lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G), -(-len(G) // INTERPOLATION_TASKS))
     return G
 
 

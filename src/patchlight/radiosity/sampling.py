@@ -27,33 +27,34 @@ REFINE_PASSES = 100      # its 2-8 % thresholds (at most this many passes)
 def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
                     progress: Progress):
     """Run the adaptive sampler, first at settings.first_accuracy, then at settings.accuracy
-    (adaptive.py); returns (status, order): the sampler's interpolation order."""
+    (adaptive.py); returns (status, order, solution): the sampler's interpolation order
+    (`adaptive.Order`) and its last run's solution (None without runs), whose arrays a
+    later solve can take over."""
     n = len(patches)
     status = np.zeros(n, np.int8)
     if settings.adaptive:
         grid, phases = adaptive.sampler_plan(patches)
     else:
         grid, phases = np.arange(n), []
-    order = adaptive.flatten(phases)
+    order = adaptive.flatten(phases, patches.height)
     noise = adaptive.gather_noise(ff.gatherer.rays_per_patch) if settings.gather == "stratified" else 0.0
+    solution = None
     with progress.stage("gather", total=n) as advance:
         _compute(ff, grid, status, advance)
-        B = None
         for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
             adaptive.reopen(status)
-            solution = solve(ff, direct, patches.rho, patches.emission, status, order,
-                             REFINE_PASSES, max(settings.tolerance, REFINE_TOLERANCE), B)
-            B, G = solution.excident, solution.gathered
-            reflected = B - patches.emission
+            solution = solve(ff, direct, patches.rho, patches.emission, status, order, REFINE_PASSES,
+                             max(settings.tolerance, REFINE_TOLERANCE), start=solution, warm=solution is not None)
             first = len(ff.ids)
             for k, phase in enumerate(phases):
                 if k:  # the rows the phase before gathered, lit by the run's solution
-                    gathered_light(ff, reflected, status, order, G, first)
+                    gathered_light(ff, solution.reflected, status, order, solution.gathered, first)
                     first = len(ff.ids)
                 for step in phase:
-                    rows = adaptive.decide(step, status, G, accuracy, noise, ff.gatherer.tracer.over_spans)
+                    rows = adaptive.decide(step, status, solution.gathered, accuracy, noise,
+                                           ff.gatherer.tracer.over_spans)
                     _compute(ff, rows, status, advance)
-    return status, order
+    return status, order, solution
 
 
 def _compute(ff: FormFactors, rows: np.ndarray, status: np.ndarray, advance) -> None:

@@ -147,22 +147,24 @@ def _csr_bytes(F: sp.csr_matrix) -> int:
 
 @dataclass
 class Solution:
-    """incident I (N, 3), excident B (N, 3), gathered G (N, 3), change after each pass."""
+    """incident I (N, 3), excident B (N, 3), gathered G (N, 3) and reflected B - E (N, 3) f32,
+    the change after each pass."""
 
     incident: np.ndarray
     excident: np.ndarray
     gathered: np.ndarray
+    reflected: np.ndarray
     changes: list[float]
 
 
-def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.ndarray, order,
+def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.ndarray, order: adaptive.Order,
                    G: np.ndarray, first: int = 0) -> np.ndarray:
     """Fill G (N, 3) f32 in place with S + F (B - E) at the computed patches of rows first..
     (in `ids` order; those before keep their G), interpolated elsewhere, and return it: the
     gather's emitted light is in S with the sky (its MIS share beside the direct stage's), F
     carries the reflected light rho I (None: nothing is reflected yet, F (B - E) = 0 is not
-    computed). Every patch is computed, a target of the sampler or inside geometry (0), so a
-    G that starts at 0 is all written."""
+    computed). Every patch is computed, a target of the sampler or inside geometry (0), so
+    all of G is written."""
     spread = ff.gatherer.tracer.over_spans
     ids, S = ff.ids[first:], ff.S[first:]
     product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected, first)
@@ -170,33 +172,39 @@ def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.nda
     return adaptive.interpolate(G, status, order, spread)
 
 
-def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray,
-          status: np.ndarray, order, passes: int, tolerance: float, B0: np.ndarray | None = None,
+def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray, status: np.ndarray,
+          order: adaptive.Order, passes: int, tolerance: float, start: Solution | None = None, warm: bool = False,
           on_pass=None) -> Solution:
     """Run passes until the relative change still to come (`change_to_come`) is below
-    `tolerance`, or `passes` passes. on_pass(k, change, I) is called after each pass (I is
-    overwritten two passes later: keep a copy). Every sweep runs in tasks on both cores."""
+    `tolerance`, or `passes` passes. start: an earlier solution whose arrays this one takes
+    over and writes (None: fresh arrays); warm: begin from its reflected light, else from
+    B = E (pass 1 lights the scene with what is emitted). on_pass(k, change, half) is called
+    after each pass, half: its incident light as float16 (N, 3), a fresh array written by
+    the pass's sweep. Every sweep runs in tasks on both cores."""
+    if warm and start is None:
+        raise ValueError("a warm solve starts from an earlier solution: pass it as start")
     spread = ff.gatherer.tracer.over_spans
     inside = status == adaptive.INSIDE
-    # fresh (N, 3) buffers, their pages first touched by the pool's tasks (np.zeros_like or a
-    # copy would write them all here): B starts as B0 (kept as it was) and reflected as B0 - E
-    B, reflected, previous = (np.empty(emission.shape, np.float32) for _ in range(3))
-    G, I = np.zeros(B.shape, np.float32), np.zeros(B.shape, np.float32)
-    start = emission if B0 is None else B0
-    spread(lambda a, b: _kernels.excident_and_reflected(
-        start[a:b], emission[a:b], B[a:b], reflected[a:b]), 0, len(B))
+    if start is None:  # fresh buffers, their pages first touched by the pool's tasks, not here
+        I, previous, G, reflected = (np.empty(emission.shape, np.float32) for _ in range(4))
+    else:
+        I, previous, G, reflected = start.incident, start.excident, start.gathered, start.reflected
     changes = []
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
-        gathered_light(ff, None if k == 1 and B0 is None else reflected, status, order, G)  # B = E: F (B - E) = 0
+        gathered_light(ff, reflected if warm or k > 1 else None, status, order, G)  # B = E: F (B - E) = 0
+        half = np.empty(I.shape, np.float16) if on_pass is not None else np.zeros((0, 3), np.float16)
+        bits = half.view(np.uint16)
         spread(lambda a, b: _kernels.pass_light(
-            direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], B[a:b], reflected[a:b]), 0, len(B))
+            direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], reflected[a:b], bits[a:b]), 0, len(I))
         changes.append(1.0 if k == 1 else relative_change(I, previous, spread))
         if on_pass is not None:
-            on_pass(k, changes[-1], I)
+            on_pass(k, changes[-1], half)
         if change_to_come(changes) < tolerance:
             break
-    return Solution(I, B, G, changes)
+    B = previous  # the pass before the last is done with
+    spread(lambda a, b: _kernels.excident(I[a:b], rho[a:b], emission[a:b], B[a:b]), 0, len(I))
+    return Solution(I, B, G, reflected, changes)
 
 
 def change_to_come(changes: list[float]) -> float:
