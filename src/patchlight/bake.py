@@ -143,7 +143,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             per_light = [texel_direct_light(points, patches, group,
                                             tracer, settings.falloff, sun_angle, settings.sun_samples, offset,
                                             settings.texel_samples) for group in lights]
-            direct = np.sum(per_light, axis=0, dtype=np.float32) if per_light else np.zeros((len(patches), 3), np.float32)
+            direct = per_light[0].copy() if per_light else np.zeros((len(patches), 3), np.float32)
+            for more in per_light[1:]:  # in order, as np.sum over the lights would add them
+                direct += more
             emitters = find_emitters(scene, patches)
             samples = samples_per_texel(settings.emitter_samples)
             if emitters is not None and samples > 0:

@@ -45,8 +45,11 @@ def stitch_seams(scene, patches: Patches, inside: np.ndarray, images: list[np.nd
     from .seams import seam_edges
 
     uv_a, uv_b = seam_edges(scene.positions, scene.normals, scene.indices, scene.uv1)
-    valid = valid_texels(patches, inside)
-    stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
+    if len(uv_a) == 0:
+        stitched = list(images)  # nothing to stitch: no copies
+    else:
+        valid = valid_texels(patches, inside)
+        stitched = [stitch(image, uv_a, uv_b, valid) for image in images]
 
     def summary(image):
         d = seam_differences(image, uv_a, uv_b)

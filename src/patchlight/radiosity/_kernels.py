@@ -166,12 +166,15 @@ def _hash_uniform(key, dim):
 
 
 @nb.njit(cache=True, inline="always")
-def _shuffle(perm, key, dim):
-    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform)."""
+def _shuffle(perm, key, dim, draws):
+    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform);
+    draws (n,) i64 scratch: every swap's partner is drawn first, a loop of independent hashes."""
+    for i in range(1, perm.shape[0]):
+        draws[i] = int(_hash_uniform(key, dim + i) * (i + 1))
     for i in range(perm.shape[0]):
         perm[i] = i
     for i in range(perm.shape[0] - 1, 0, -1):
-        j = int(_hash_uniform(key, dim + i) * (i + 1))
+        j = draws[i]
         perm[i], perm[j] = perm[j], perm[i]
 
 
@@ -282,7 +285,7 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
-    and lift (N,): the patches' normals and ray lifts. Emitters (M of them): cdf (M,) their
+    and lift (N,): the patches' normals and ray lifts (f32 or f64, read as f64). Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
     area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
     (M,); em_patch (M,) their `uniform_patches`. Sample j of a texel picks an emitter by
@@ -304,19 +307,21 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     value = np.empty((n, 3), np.float32)
     perm_pick = np.empty(k_count, np.int64)
     perm_point = np.empty(k_count, np.int64)
+    draws = np.empty(k_count, np.int64)
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
     reach = np.abs(corners).max() if m > 0 else 0.0
     live = 0
     for r in range(r_count):
         p = rows[r]
-        nx, ny, nz = float(normal[p, 0]), float(normal[p, 1]), float(normal[p, 2])
-        lx, ly, lz = lift[p] * nx, lift[p] * ny, lift[p] * nz
+        nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
+        lift_p = np.float64(lift[p])
+        lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
         if _faces_no_emitter(points[r], lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
             continue
         key = np.int64(p) * 1000003 + seed
-        _shuffle(perm_pick, key, 0)
-        _shuffle(perm_point, key, k_count)
+        _shuffle(perm_pick, key, 0, draws)
+        _shuffle(perm_point, key, k_count, draws)
         for j in range(k_count):
             ox, oy, oz = points[r, j, 0] + lx, points[r, j, 1] + ly, points[r, j, 2] + lz
             pick = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
@@ -361,11 +366,13 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
 @nb.njit(cache=True, nogil=True)
 def unblocked_sums(value, ray, blocked, k, out):
     """Add into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
-    emitter_rays' rays `ray` (L,) (sample ids r * k + j) but those `blocked` (L,) (their
-    shadow ray met something)."""
+    emitter_rays' rays `ray` (L,) (sample ids r * k + j, ascending) but those `blocked` (L,)
+    (their shadow ray met something)."""
+    r, end = 0, k  # the texel of ray q, and its samples' end: no division per ray
     for q in range(ray.shape[0]):
         if not blocked[q]:
-            r = ray[q] // k
+            while ray[q] >= end:
+                r, end = r + 1, end + k
             for c in range(3):
                 out[r, c] += value[q, c]
 
@@ -407,15 +414,18 @@ def sun_rays(origins, cos, dirs):
 @nb.njit(cache=True, nogil=True)
 def add_sun_light(total, cos, ray, blocked, light):
     """Add to total (N, K, 3) f64 a sun's light (3,) at each point: the mean over the point's
-    sun_rays of cos where the ray is not `blocked` (L,), times light / pi. cos (N, S)."""
+    sun_rays (ray (L,), their ids, ascending) of cos where the ray is not `blocked` (L,), times
+    light / pi. cos (N, S)."""
     n, k = total.shape[0], total.shape[1]
     point, direction = _sun_deal(cos.shape[1], k)
     j_count = point.shape[0]
     visible = np.zeros((n, k))
+    i, start = 0, 0  # the texel of ray q and its first ray id (ids ascend): no division per ray
     for q in range(ray.shape[0]):
         if not blocked[q]:
-            i = ray[q] // j_count
-            j = ray[q] - i * j_count
+            while ray[q] >= start + j_count:
+                i, start = i + 1, start + j_count
+            j = ray[q] - start
             visible[i, point[j]] += cos[i, direction[j]]
     count = np.bincount(point)  # each point's rays
     for i in range(n):

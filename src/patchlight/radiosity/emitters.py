@@ -88,16 +88,13 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
     shadow ray each (K samples per texel; made chunk by chunk on the tracer's threads); lift
     (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
     e = emitters
-    normal = np.asarray(patches.normal, np.float64)
-    lift = np.asarray(lift, np.float64)
-
     out = np.zeros((len(patches), 3), np.float32)
 
     def chunk(first, last):
         rows = np.arange(first, last, dtype=np.int64)
         points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
-            points, normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
+            points, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
         _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[first:last])
