@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
-from ..rays.inside import back_share, two_sided_triangles
+from ..rays.inside import back_faces, back_share, two_sided_triangles
 from ..rays.tracer import Tracer, spans
 from ..scene.model import Scene
 from . import _kernels
@@ -96,9 +96,9 @@ class Gatherer:
     def probe_back_fraction(self, rows: np.ndarray) -> np.ndarray:
         """(R,) share of PROBE_RAYS cosine rays from each patch of `rows` that hit back faces:
         a cheap look before a patch inside a wall or under an object pays for its gather."""
-        def probe(chunk):
-            seen, _, _ = self._see(chunk, self.probe_dirs)
-            return back_share(seen.reshape(len(chunk), -1) == BACK_FACE)
+        def probe(chunk):  # back faces only: no texel look-ups
+            hits = self.tracer.intersect_chunk(*self._rays(chunk, self.probe_dirs))
+            return back_share(back_faces(hits.tri, hits.front, self.two_sided).reshape(len(chunk), -1))
 
         parts = self.tracer.map(probe, self._chunks(rows, PROBE_RAYS))
         return np.concatenate(parts) if parts else np.zeros(0)
@@ -142,12 +142,17 @@ class Gatherer:
         their gather."""
         return self.tracer.map(lambda chunk: fn(chunk, *self._see(chunk, self.dirs)[:2]), self._chunks(rows))
 
+    def _rays(self, rows: np.ndarray, local_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and directions (R * D, 3) f32 of patches `rows` looking along `local_dirs` (D, 3)."""
+        p = self.patches
+        return hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64), local_dirs,
+                               row_angles(rows, self.seed))
+
     def _see(self, rows: np.ndarray, local_dirs: np.ndarray):
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch
         id or SKY / BACK_FACE / LOST per ray, the rays' directions (R * D, 3) and their Hits."""
         p = self.patches
-        origins, dirs = hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64),
-                                        local_dirs, row_angles(rows, self.seed))
+        origins, dirs = self._rays(rows, local_dirs)
         hits = self.tracer.intersect_chunk(origins, dirs)
         seen = _kernels.resolve_hits(hits.tri, hits.normal, dirs, hits.u, hits.v, self.two_sided, self.tri_uv1,
                                      p.width, p.height, self.ranks)
