@@ -23,7 +23,7 @@ from .hemicube import concentric_disk
 
 REFINE_GRIDS = (8, 16)     # points per texel axis after the first look, where the points disagree
 REFINE_SPREAD = 0.02       # points disagree when their light spreads over 2 % of the brightest
-POINTS_PER_CHUNK = 8192    # points per task (each casts a shadow ray per light and sun direction)
+POINTS_PER_CHUNK = 32768   # points per task (each casts a shadow ray per light and sun direction)
 
 
 def _sun_directions(light: Light, angle: float, samples: int) -> np.ndarray:
