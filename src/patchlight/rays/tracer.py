@@ -143,7 +143,7 @@ class Tracer:
         """(N,) bool occlusion traced on the calling thread (see `occluded`); tmax (N,) f32."""
         self._count(len(origins))
         return self._ready().run(np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32),
-                                 dists=np.array(tmax, np.float32), query="OCCLUDED") >= 0
+                                 dists=np.require(tmax, np.float32, "CW"), query="OCCLUDED") >= 0  # only read
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
         """(N,) bool: True where something lies along the ray before distance tmax."""
