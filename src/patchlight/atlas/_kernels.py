@@ -172,29 +172,26 @@ def _rasterize_rows(tex, live, width, first, last, owner, best):
                 _claim(owner, best, x, y, t, score)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def owned_texels(owner):
     """The texels of an `owner` (H, W) i32 grid (`rasterize_owners`) that a triangle owns, in
     (y, x) order: texel_y, texel_x, triangle (N,) i32, and index (H, W) i32, each texel's
-    row in those (-1: no owner). Rows of texels run in parallel."""
+    row in those (-1: no owner)."""
     height, width = owner.shape
-    count = np.zeros(height + 1, np.int64)
-    for y in prange(height):
-        count[y + 1] = np.count_nonzero(owner[y] >= 0)
-    start = np.cumsum(count)
     index = np.empty((height, width), np.int32)
-    texel_y = np.empty(start[-1], np.int32)
-    texel_x = np.empty(start[-1], np.int32)
-    triangle = np.empty(start[-1], np.int32)
-    for y in prange(height):
-        row = start[y]
+    n = 0
+    for y in range(height):
         for x in range(width):
-            if owner[y, x] >= 0:
-                index[y, x] = row
+            index[y, x] = n if owner[y, x] >= 0 else -1
+            n += owner[y, x] >= 0
+    texel_y = np.empty(n, np.int32)
+    texel_x = np.empty(n, np.int32)
+    triangle = np.empty(n, np.int32)
+    for y in range(height):
+        for x in range(width):
+            row = index[y, x]
+            if row >= 0:
                 texel_y[row], texel_x[row], triangle[row] = y, x, owner[y, x]
-                row += 1
-            else:
-                index[y, x] = -1
     return texel_y, texel_x, triangle, index
 
 

@@ -135,49 +135,42 @@ def encode_scanlines(rgbe):
     return out[:pos]
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def dilate_rings(image, known, allowed, rings):
     """Grow image (H, W, C) in place from its `known` (H, W) texels by up to `rings` rings:
     each unknown texel in `allowed` takes the mean of its known side neighbours, or, with
     none, of its known corner neighbours: the nearest texels (so padding beside a dark texel
     at a wall's foot copies it, not the lit texel diagonally across the wall). All texels of
-    a ring are filled from the rings before it (rows in parallel: a ring reads only texels
-    known before it). Returns the grown `known` mask."""
-    h, w = known.shape
+    a ring are filled from the rings before it. Returns the grown `known` mask."""
+    h, w, c = image.shape
     known = known.copy()
     for _ in range(rings):
         grown = known.copy()
-        count = 0
-        for y in numba.prange(h):
+        any_grown = False
+        for y in range(h):
             for x in range(w):
-                if not known[y, x] and allowed[y, x]:
-                    count += _grow_texel(image, known, grown, y, x)
+                if known[y, x] or not allowed[y, x]:
+                    continue
+                for first, last in ((0, 4), (4, 8)):  # sides, then corners
+                    count = 0
+                    for k in range(first, last):
+                        yy, xx = y + RING[k, 0], x + RING[k, 1]
+                        if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                            count += 1
+                    if count > 0:
+                        break
+                if count == 0:
+                    continue
+                for ch in range(c):
+                    total = 0.0
+                    for k in range(first, last):
+                        yy, xx = y + RING[k, 0], x + RING[k, 1]
+                        if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                            total += image[yy, xx, ch]
+                    image[y, x, ch] = total / count
+                grown[y, x] = True
+                any_grown = True
         known = grown
-        if count == 0:
+        if not any_grown:
             break
     return known
-
-
-@numba.njit(cache=True)
-def _grow_texel(image, known, grown, y, x):
-    """`dilate_rings` at unknown texel (y, x): 1 when known neighbours filled it, else 0."""
-    h, w, c = image.shape
-    for first, last in ((0, 4), (4, 8)):  # sides, then corners
-        count = 0
-        for k in range(first, last):
-            yy, xx = y + RING[k, 0], x + RING[k, 1]
-            if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                count += 1
-        if count > 0:
-            break
-    if count == 0:
-        return 0
-    for ch in range(c):
-        total = 0.0
-        for k in range(first, last):
-            yy, xx = y + RING[k, 0], x + RING[k, 1]
-            if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                total += image[yy, xx, ch]
-        image[y, x, ch] = total / count
-    grown[y, x] = True
-    return 1
