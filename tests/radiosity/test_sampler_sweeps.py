@@ -17,13 +17,15 @@ def plan():
     return len(patches), grid, phases, adaptive.flatten(phases, patches.height)
 
 
-@pytest.fixture
-def backwards(monkeypatch):
-    """Tracer.over_spans on a pool that runs small spans last first; interpolations cut into
-    chunks as short as they can be."""
+@pytest.fixture(params=[1, -1], ids=["first_first", "last_first"])
+def one_by_one(monkeypatch, request):
+    """Tracer.over_spans on a pool that runs small spans one by one, first first or last first
+    (a span reading rows of the span after it, or of the one before, then sees them unwritten);
+    interpolations cut into chunks as short as they can be."""
     monkeypatch.setattr(tracer, "TASK_ROWS", 7)
     monkeypatch.setattr(adaptive, "INTERPOLATION_TASKS", 1000)
-    return lambda fn, first, last, size=None: [fn(*span) for span in tracer.spans(first, last, size)[::-1]][::-1]
+    step = request.param
+    return lambda fn, first, last, size=None: [fn(*span) for span in tracer.spans(first, last, size)[::step]][::step]
 
 
 def _light(n, rng):
@@ -53,7 +55,7 @@ def _decide_reference(step, status, G, threshold):
     return np.array(compute, np.int64)
 
 
-def test_decide_in_spans_equals_one_target_after_another(plan, backwards):
+def test_decide_in_spans_equals_one_target_after_another(plan, one_by_one):
     n, grid, phases, _ = plan
     rng = np.random.default_rng(5)
     G = _light(n, rng)
@@ -63,7 +65,7 @@ def test_decide_in_spans_equals_one_target_after_another(plan, backwards):
         for step in phase:
             expected = status.copy()
             want = _decide_reference(step, expected, G, 0.5 ** step.spacing)
-            got = adaptive.decide(step, status, G, 0.5, 0.0, backwards)
+            got = adaptive.decide(step, status, G, 0.5, 0.0, one_by_one)
             assert len(want) > 0 and len(want) < len(step.targets)
             np.testing.assert_array_equal(got, want)
             np.testing.assert_array_equal(status, expected)
@@ -82,7 +84,7 @@ def _interpolate_reference(G, status, order):
     return expected
 
 
-def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
+def test_interpolation_in_spans_equals_the_sequential_sweep(plan, one_by_one):
     n, grid, phases, order = plan
     assert order.height > 2 * (4 * order.reach[-1] + 1)  # in chunks: more than one boundary between them
     rng = np.random.default_rng(6)
@@ -90,10 +92,10 @@ def test_interpolation_in_spans_equals_the_sequential_sweep(plan, backwards):
                         p=[0.3, 0.4, 0.2, 0.1]).astype(np.int8)
     G = _light(n, rng)
     expected = _interpolate_reference(G, status, order)
-    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, backwards), expected)
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, one_by_one), expected)
 
 
-def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, backwards):
+def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, one_by_one):
     """With no texel undecided, the interpolation leaves those inside geometry out (nothing
     decided reads them): the same G as the full sweep, on statuses the sampler's rule made."""
     n, grid, phases, order = plan
@@ -106,4 +108,4 @@ def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, backw
         status[computed[rng.random(len(computed)) < 0.2]] = adaptive.INSIDE  # some found inside by their gather
     assert not np.any(status == adaptive.UNDECIDED) and np.count_nonzero(status == adaptive.INTERPOLATED) > 100
     expected = _interpolate_reference(G, status, order)
-    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, backwards), expected)
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, one_by_one), expected)

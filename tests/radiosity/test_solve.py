@@ -132,23 +132,25 @@ def test_the_rows_from_any_first_multiply_as_the_whole_product_does(room_gathere
 
 def test_the_pass_sweep_writes_numpys_float16_cast():
     """pass_light's float16 copy of the incident light (the pass store) is NumPy's cast, bit
-    for bit: ties to even (normal and subnormal), the smallest subnormals, overflow to inf."""
+    for bit: ties to even (normal and subnormal), the smallest subnormals, overflow to inf,
+    negative values, NaNs with and without a payload that survives."""
     import numpy as np
 
     from patchlight.radiosity import _kernels
 
     rng = np.random.default_rng(7)
-    bits = rng.integers(0, 0x7F800001, 60000, dtype=np.uint32)
+    bits = rng.integers(0, 0x7F800001, 60000, dtype=np.uint32) | rng.choice(np.uint32([0, 0x80000000]), 60000)
     ties = (bits & ~np.uint32(0x1FFF)) | np.uint32(0x1000)       # halfway between two normal float16
     below = bits >> np.uint32(5) & ~np.uint32(0xFFF) | np.uint32(0x33000000)  # small: subnormal or 0
     edges = np.float32([0, 2 ** -25, 2 ** -25 * 1.0000001, 3 * 2 ** -25, 2 ** -24, 2 ** -14 * (1 - 2 ** -11),
-                        65504, 65519.996, 65520, 1e30, np.inf]).view(np.uint32)
-    light = np.concatenate([bits, ties, below, edges]).view(np.float32)
-    light = light[:len(light) // 3 * 3].reshape(-1, 3)
+                        65504, 65519.996, 65520, 1e30, np.inf, -np.inf, -0.0, -65520]).view(np.uint32)
+    nans = np.uint32([0x7F800001, 0x7F801FFF, 0x7F802000, 0x7FC00000, 0x7FFFFFFF, 0xFF800001, 0xFFC00000])
+    light = np.concatenate([bits, ties, below, edges, nans]).view(np.float32)
+    light = light.reshape(-1, 3)
     n = len(light)
     zeros = np.zeros((n, 3), np.float32)
     incident, reflected, half = np.empty_like(zeros), np.empty_like(zeros), np.empty((n, 3), np.uint16)
     _kernels.pass_light(light, zeros, np.zeros(n, bool), zeros, zeros, incident, reflected, half)
-    np.testing.assert_array_equal(incident, light)
-    with np.errstate(over="ignore"):  # the float16 of 1e30 and more is inf
-        np.testing.assert_array_equal(half, light.astype(np.float16).view(np.uint16))
+    np.testing.assert_array_equal(incident, light)  # D + 0: the same values (a NaN made quiet)
+    with np.errstate(over="ignore", invalid="ignore"):  # the float16 of 1e30 and more is inf
+        np.testing.assert_array_equal(half, incident.astype(np.float16).view(np.uint16))

@@ -195,12 +195,31 @@ def owned_texels(owner):
     return texel_y, texel_x, triangle, index
 
 
+@njit(cache=True, inline="always")
+def _covered_and_not(s, excluded):
+    """Whether a texel of patch s (-1: uncovered) is covered by a patch not `excluded` (N,) bool:
+    the one rule of a texel with light of its own (excluded: inside geometry) and of one a
+    fill may write (excluded: walled)."""
+    return s >= 0 and not excluded[s]
+
+
+@njit(cache=True, parallel=True)
+def texels_covered_and_not(index, excluded):
+    """(H, W) bool: `_covered_and_not` for every texel of the patch index (H, W) i32. Rows in parallel."""
+    height, width = index.shape
+    out = np.empty((height, width), np.bool_)
+    for y in prange(height):
+        for x in range(width):
+            out[y, x] = _covered_and_not(index[y, x], excluded)
+    return out
+
+
 @njit(cache=True, parallel=True)
 def lightmap_texels(index, values, inside, walled):
     """Per-patch values (N, C) as a lightmap image through the patch index (H, W) i32: image
     (H, W, C) f32 (0 where no patch), valid (H, W) bool the texels of patches not inside
-    geometry (inside (N,) bool) and fillable (H, W) bool those of patches not walled (walled
-    (N,) bool). Rows in parallel."""
+    geometry (inside (N,) bool, as `texels_covered_and_not`) and fillable (H, W) bool those
+    of patches not walled (walled (N,) bool). Rows in parallel."""
     height, width = index.shape
     image = np.empty((height, width, values.shape[1]), np.float32)
     valid = np.empty((height, width), np.bool_)
@@ -210,8 +229,8 @@ def lightmap_texels(index, values, inside, walled):
             s = index[y, x]
             for c in range(values.shape[1]):
                 image[y, x, c] = values[s, c] if s >= 0 else 0.0
-            valid[y, x] = s >= 0 and not inside[s]
-            fillable[y, x] = s >= 0 and not walled[s]
+            valid[y, x] = _covered_and_not(s, inside)
+            fillable[y, x] = _covered_and_not(s, walled)
     return image, valid, fillable
 
 

@@ -14,8 +14,8 @@ DILATE_TEXELS = 4  # rings grown past chart borders so bilinear filtering never 
 
 def valid_texels(patches: Patches, inside: np.ndarray) -> np.ndarray:
     """(H, W) bool: the texels with light of their own, covered by a patch not inside geometry
-    (inside (N,) bool)."""
-    return (patches.index >= 0) & ~patches.to_image(inside, fill=True)
+    (inside (N,) bool), as the lightmap's fill decides them."""
+    return _kernels.texels_covered_and_not(patches.index, inside)
 
 
 def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray,

@@ -543,7 +543,8 @@ HALF_SUBNORMAL_MAGIC = np.float32(0.5)  # 2^-1: added to |x| < 2^-14, rounds it 
 @nb.njit(cache=True, inline="always")
 def half_bits(x):
     """The bits (u16) of the float16 nearest to the f32 x, ties to even: what NumPy's cast
-    to float16 gives (overflow to inf; NaN stays NaN). Both ways are computed and one picked:
+    to float16 gives (overflow to inf; a NaN keeps its sign and the top bits of its payload,
+    at least one). Both ways are computed and one picked:
     normal results round by adding 0xFFF (+1 when the kept mantissa is odd) below the kept
     13 bits; subnormal ones by the float addition of a power of two that leaves 2^-24 as
     its last bit."""
@@ -555,7 +556,7 @@ def half_bits(x):
     subnormal = np.int64(rounded.view(np.uint32)) - (126 << 23)
     out = subnormal if a < (113 << 23) else normal
     if a >= (143 << 23):  # |x| >= 2^16: inf, or NaN
-        out = 0x7E00 if a > 0x7F800000 else 0x7C00
+        out = 0x7C00 | max((a & 0x7FFFFF) >> 13, 1) if a > 0x7F800000 else 0x7C00
     return np.uint16(sign | out)
 
 

@@ -6,10 +6,11 @@ Embree) plus BYTES_PER_TEXEL per texel of the W x H image (patch arrays, light v
 sampler's plan and state, the passes kept as float16, images and the files' buffers),
 covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the room's 213
 at 1024 and 200 at 2048). Peak minus F was 0.57 and 1.53 GiB at 1024 and 2048: 256 MiB plus
-328 a texel. Direct light works chunk by chunk, so its points per texel cost nothing per
-texel. The time is CPU seconds per texel over the cores: the room at 4096 took 354 CPU
-seconds for 16.8 M texels, 21 microseconds each (17 at 1024 and 16 at 2048: the estimate
-errs long for smaller bakes). F gets what is left, up to max_memory, and is
+328 a texel (0.55 and 1.55 GiB measured on the current code: the same fit). Direct light
+works chunk by chunk, so its points per texel cost nothing per texel. The time is CPU
+seconds per texel over the cores, 21 microseconds each: a bound that errs long (the room at
+4096 takes 229 CPU seconds for 16.8 M texels, 13.6 each, and 152 s of wall clock where the
+estimate says 176). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
