@@ -20,8 +20,17 @@ from ..rays.tracer import Tracer
 from . import _kernels, adaptive
 from .solve import FormFactors, gathered_light, solve
 
-REFINE_TOLERANCE = 1e-2  # each run of the sampler decides on a solution converged well inside
-REFINE_PASSES = 100      # its 2-8 % thresholds (at most this many passes)
+REFINE_MARGIN_SHARE = 0.25  # a run's solve stops when the change still to come is this share of its margin
+REFINE_PASSES = 100         # (`refine_tolerance`), after at most this many passes
+
+
+def refine_tolerance(accuracy: float, tolerance: float) -> float:
+    """The tolerance of the solve a run of the sampler at `accuracy` decides on: a quarter of
+    the margin its nearest threshold leaves, 1 - accuracy ** 2 (spacing 2's), and no tighter
+    than the bake's own `tolerance`. Neighbours whose light changes by less than that agree or
+    differ as they will when converged: at 0.98, 1e-2 (thresholds 8 and 4 %); at 0.5, 0.19
+    (thresholds of contrasts 4 and 16: fewer passes decide them as well)."""
+    return max(tolerance, REFINE_MARGIN_SHARE * (1.0 - accuracy ** 2))
 
 
 def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, settings: BakeSettings,
@@ -44,7 +53,7 @@ def gather_adaptive(ff: FormFactors, patches: Patches, direct: np.ndarray, setti
         for accuracy in (settings.first_accuracy, settings.accuracy) if phases else ():
             adaptive.reopen(status)
             solution = solve(ff, direct, patches.rho, patches.emission, status, order, REFINE_PASSES,
-                             max(settings.tolerance, REFINE_TOLERANCE), start=solution, warm=solution is not None)
+                             refine_tolerance(accuracy, settings.tolerance), start=solution, warm=solution is not None)
             first = len(ff.ids)
             for k, phase in enumerate(phases):
                 if k:  # the rows the phase before gathered, lit by the run's solution
