@@ -62,3 +62,43 @@ def test_the_emitting_bits_find_the_rays_that_see_emission():
     shares = _kernels.emission_shares(seen, tri, dist, dirs, dirs[:1], _kernels.emitting_patches(emission),
                                       np.zeros(0), np.zeros((0, 3)), 0.0)  # no next-event samples: whole shares
     assert np.array_equal(shares, expected.astype(np.float32))
+
+
+def _rows_one_ray_at_a_time(seen, weights, radiance, panels):
+    """item_buffer_rows' answer, ray by ray in float32: each row's patches in first-seen order,
+    their weights summed, then dealt to their column panels, rows ascending within a panel."""
+    d = len(weights)
+    entries, sky, back, lost, k_sky = [], np.zeros((len(seen) // d, 3), np.float32), [], 0, 0
+    for r in range(len(seen) // d):
+        row = {}
+        for j, s in enumerate(seen[r * d:(r + 1) * d]):
+            if s >= 0:
+                row[s] = row[s] + weights[j] if s in row else weights[j]
+            elif s == _kernels.SKY:
+                sky[r] += weights[j] * radiance[k_sky]
+                k_sky += 1
+            lost += s == _kernels.LOST
+        entries += [(s >> 16, r, s & 0xFFFF, w) for s, w in row.items()]
+        back.append(np.count_nonzero(seen[r * d:(r + 1) * d] == _kernels.BACK_FACE) / d)
+    entries.sort(key=lambda e: e[0])  # stable: rows ascending, first-seen order within a row
+    panel, rows, cols, w = (np.array([e[i] for e in entries]) for i in range(4))
+    starts = np.searchsorted(panel, np.arange(panels + 1))
+    return starts, rows, cols, w.astype(np.float32), sky, np.float32(back), lost
+
+
+def test_the_rows_of_an_item_buffer_sum_each_rows_rays_panel_by_panel():
+    rng = np.random.default_rng(5)
+    d, n = 40, 3 * 65536 + 9  # four column panels
+    weights = rng.random(d, dtype=np.float32)
+    seen = rng.integers(_kernels.LOST, n, (300, d)).astype(np.int32)
+    seen[:, 1::4] = seen[:, ::4]  # duplicates within rows, some meeting in the hash table's chains
+    seen[7] = _kernels.SKY
+    seen[8, :] = 65536 + 7  # one patch seen by every ray of a row
+    seen = seen.ravel()
+    radiance = rng.random((np.count_nonzero(seen == _kernels.SKY), 3), dtype=np.float32)
+    panels = _kernels.panel_count(n)
+    got = _kernels.item_buffer_rows(seen, weights, radiance, panels)
+    expected = _rows_one_ray_at_a_time(seen, weights, radiance, panels)
+    assert got[1].dtype == got[2].dtype == np.uint16 and got[3].dtype == np.float32 and got[-1] == expected[-1]
+    for a, b in zip(got[:-1], expected[:-1]):
+        np.testing.assert_array_equal(a, b)

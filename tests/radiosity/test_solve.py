@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from patchlight.radiosity.gather import PanelRows
 from patchlight.radiosity.solve import change_to_come
 
 
@@ -27,63 +28,75 @@ def test_an_exact_fixed_point_stops_at_once():
     assert change_to_come([1.0, 0.0]) == 0.0
 
 
-def _counts(pieces, n_cols):
-    import numpy as np
-
-    from patchlight.radiosity import _kernels
-
-    panels = _kernels.panel_count(n_cols)
-    return np.array([_kernels.panel_counts(p.indptr, p.indices, panels) for p in pieces], np.int64).reshape(-1, panels)
-
-
-@pytest.mark.parametrize("n_cols", [1000, 65536, 3 * 65536 + 17])  # one column panel, one and an empty one, four
-def test_a_panel_block_multiplies_as_its_csr_matrix(n_cols):
+def _pieces(n_cols, cuts, rays=24, seed=3):
+    """The gather's pieces of rows cuts[0]..cuts[-1] (item_buffer_rows of random item buffers,
+    one piece per cut, some empty), and the same rows as one CSR matrix (duplicates summed)."""
     import numpy as np
     import scipy.sparse as sp
 
+    from patchlight.radiosity import _kernels
+
+    rng = np.random.default_rng(seed)
+    weights = rng.random(rays, dtype=np.float32)
+    seen = rng.integers(-3, n_cols, (cuts[-1], rays)).astype(np.int32)  # SKY, BACK_FACE, LOST or a patch
+    seen[:, ::3] = seen[:, :1]  # duplicates within a row
+    pieces = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        starts, rows, cols, w, *_ = _kernels.item_buffer_rows(seen[a:b].ravel(), weights, np.ones((rays * (b - a), 3),
+                                                              np.float32), _kernels.panel_count(n_cols))
+        pieces.append(PanelRows(starts, rows, cols, w, b - a))
+    hit = seen >= 0
+    F = sp.csr_matrix((np.broadcast_to(weights, seen.shape)[hit], (np.nonzero(hit)[0], seen[hit])),
+                      shape=(cuts[-1], n_cols), dtype=np.float32)
+    return pieces, F
+
+
+@pytest.mark.parametrize("n_cols", [1000, 65536, 3 * 65536 + 17])  # one column panel, one and an empty one, four
+def test_a_panel_block_holds_its_rows_panel_by_panel_in_column_order(n_cols):
+    import numpy as np
+
     from patchlight.radiosity.solve import PanelBlock
 
-    rng = np.random.default_rng(3)
-    F = sp.random(20000, n_cols, density=20 / n_cols, format="csr", dtype=np.float32, random_state=rng)
-    F.indices = F.indices.astype(np.int32)
-    B = rng.random((n_cols, 3), dtype=np.float32)
-    cuts = [0, 7000, 7000, 7001, 15000, 20000]  # the gather's chunks: pieces of consecutive rows, one empty
-    pieces = [F[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
-    last_first = []  # the pieces' tasks run last first: each writes where the pieces before it end
+    cuts = [0, 700, 700, 701, 1500, 2000]  # the gather's chunks: pieces of consecutive rows, one empty
+    pieces, F = _pieces(n_cols, cuts)
+    last_first = []  # the panels' tasks run last first
 
     def run(fn, items):
         last_first.append(len(items))
         return [fn(item) for item in reversed(items)][::-1]
 
-    block = PanelBlock.of(pieces, _counts(pieces, n_cols), run)
-    assert block.n_rows == 20000 and len(block.weights) == F.nnz and last_first[0] == 5
-    assert np.all(np.diff(block.starts) >= 0) and block.starts[-1] == F.nnz
-    for first, last in zip(block.starts[:-1], block.starts[1:]):  # each panel in column order
-        assert np.all(np.diff(block.cols[first:last].astype(np.int64)) >= 0)
+    block = PanelBlock.of(pieces, run)
+    assert block.n_rows == 2000 and not pieces and last_first == [(n_cols >> 16) + 1]
+    F.sort_indices()  # the expected order: panel, then column, then row
+    rows, cols = np.repeat(np.arange(F.shape[0]), np.diff(F.indptr)), F.indices
+    order = np.lexsort((rows, cols))
+    np.testing.assert_array_equal(block.starts, np.searchsorted(cols[order], np.arange(len(block.starts)) << 16))
+    np.testing.assert_array_equal(block.rows, rows[order])
+    np.testing.assert_array_equal(block.cols, cols[order] & 0xFFFF)
+    np.testing.assert_allclose(block.weights, F.data[order], rtol=1e-6)
+    B = np.random.default_rng(4).random((n_cols, 3), dtype=np.float32)
     np.testing.assert_allclose(block.times(B), F @ B, rtol=1e-5, atol=1e-6)
-    whole = PanelBlock.of([F], _counts([F], n_cols), run)  # the pieces make the block F makes alone
-    for a, b in zip((block.starts, block.rows, block.cols, block.weights), (whole.starts, whole.rows, whole.cols,
-                                                                            whole.weights)):
-        np.testing.assert_array_equal(a, b)
+    whole = PanelBlock.of(_pieces(n_cols, [0, 2000])[0], run)  # the pieces make the block the rows make at once
+    for name in ("starts", "rows", "cols", "weights"):
+        np.testing.assert_array_equal(getattr(block, name), getattr(whole, name))
 
 
 def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
     import numpy as np
-    import scipy.sparse as sp
 
     from patchlight.radiosity.solve import PanelBlock
 
     def run(fn, items):
         return [fn(item) for item in items]
 
-    empty = PanelBlock.of([], _counts([], 70000), run)
-    assert empty.times(np.ones((70000, 3), np.float32)).shape == (0, 3)
-    one = sp.csr_matrix(([2.0, 3.0], ([0, 0], [5, 65536])), shape=(1, 70000), dtype=np.float32)
-    block = PanelBlock.of([one], _counts([one], 70000), run)
+    assert PanelBlock.of([], run).times(np.ones((70000, 3), np.float32)).shape == (0, 3)
+    one = PanelRows(np.array([0, 1, 2]), np.uint16([0, 0]), np.uint16([5, 0]), np.float32([2.0, 3.0]), 1)
+    block = PanelBlock.of([one], run)  # columns 5 and 65536
     np.testing.assert_array_equal(block.times(np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
-    many = sp.csr_matrix((65537, 4), dtype=np.float32)
+    many = PanelRows(np.zeros(2, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16), np.zeros(0, np.float32),
+                     65537)
     with pytest.raises(ValueError, match="2\\^16 rows"):
-        PanelBlock.of([many], _counts([many], 4), run)
+        PanelBlock.of([many], run)
 
 
 @pytest.fixture(scope="module")

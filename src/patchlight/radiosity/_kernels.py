@@ -716,18 +716,29 @@ def sky_directions(seen, dirs):
     return out
 
 
+PANEL_BITS = 16  # a panel is 2^16 columns of F: its slice of B (768 KiB) stays in a core's L2 cache
+
+
+def panel_count(n_cols: int) -> int:
+    """Column panels (PANEL_BITS) of a matrix of n_cols columns."""
+    return (n_cols >> PANEL_BITS) + 1
+
+
 @nb.njit(cache=True, nogil=True)
-def item_buffer_rows(seen, weights, sky_radiance):
+def item_buffer_rows(seen, weights, sky_radiance, panels):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
-    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order.
-    Returns CSR (indptr (R+1,) i32, indices, data; columns in first-seen order, duplicates
-    summed), the sky term (R, 3), the share of each patch's rays that hit back faces (R,) and
-    the number of LOST rays. Duplicates meet in a hash table of 4 D slots (a quarter full at
-    most: few collisions), each holding a patch id and where its entry is; an entry placed
-    before the row's first is a free slot, so the table is never cleared: scratch space and
-    work per ray stay constant however large the lightmap.
+    per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order;
+    panels: column panels of F (`panel_count`). Returns the rows column panel by column panel
+    (starts (panels + 1,) int64: panel p's entries are starts[p]..starts[p + 1], in row order,
+    a row's in first-seen order, duplicates summed; rows u16 the row among the R, cols u16
+    the column within its panel, weights f32), the sky term (R, 3), the share of each patch's
+    rays that hit back faces (R,) and the number of LOST rays. Duplicates meet in a hash
+    table of 4 D slots (a quarter full at most: few collisions), each holding a patch id and
+    where its entry is; an entry placed before the row's first is a free slot, so the table
+    is never cleared: scratch space and work per ray stay constant however large the
+    lightmap. The entries, counted per panel as they appear, are then dealt to their panels.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
@@ -736,16 +747,18 @@ def item_buffer_rows(seen, weights, sky_radiance):
         size *= 2
     table = np.full(size, -1, np.int64)  # patch id << 32 | where its entry is in indices / data
     place = np.int64(0xFFFFFFFF)
-    indptr = np.zeros(rows + 1, np.int32)  # scipy's own index type: csr_matrix takes it as it is
+    indptr = np.zeros(rows + 1, np.int64)
     indices = np.empty(seen.shape[0], np.int32)
     data = np.empty(seen.shape[0], np.float32)
-    sky = np.zeros((rows, 3), np.float32)
-    back = np.zeros(rows, np.float32)
+    starts = np.zeros(panels + 1, np.int64)
+    sky = np.empty((rows, 3), np.float32)
+    back = np.empty(rows, np.float32)
     nnz = 0
     k_sky = 0
     lost = 0
     for r in range(rows):
         first = indptr[r]
+        red, green, blue, back_rays = np.float32(0.0), np.float32(0.0), np.float32(0.0), 0
         for j in range(d):
             s = seen[r * d + j]
             if s >= 0:
@@ -756,23 +769,36 @@ def item_buffer_rows(seen, weights, sky_radiance):
                         table[h] = (np.int64(s) << 32) | nnz
                         indices[nnz] = s
                         data[nnz] = weights[j]
+                        starts[(s >> PANEL_BITS) + 1] += 1
                         nnz += 1
                         break
                     if slot >> 32 == s:
                         data[slot & place] += weights[j]
                         break
                     h = (h + 1) & (size - 1)
-            elif s == SKY:
-                for c in range(3):
-                    sky[r, c] += weights[j] * sky_radiance[k_sky, c]
+            elif s == SKY:  # summed in registers: in the array, each add waited on the one before
+                red += weights[j] * sky_radiance[k_sky, 0]
+                green += weights[j] * sky_radiance[k_sky, 1]
+                blue += weights[j] * sky_radiance[k_sky, 2]
                 k_sky += 1
             elif s == BACK_FACE:
-                back[r] += 1.0
+                back_rays += 1
             else:
                 lost += 1
         indptr[r + 1] = nnz
-        back[r] /= d
-    return indptr, indices[:nnz].copy(), data[:nnz].copy(), sky, back, lost
+        sky[r, 0], sky[r, 1], sky[r, 2] = red, green, blue
+        back[r] = np.float32(back_rays) / d
+    for p in range(panels):
+        starts[p + 1] += starts[p]
+    at = starts[:-1].copy()
+    out_rows, out_cols, out_weights = np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32)
+    for r in range(rows):
+        for k in range(np.uint64(indptr[r]), np.uint64(indptr[r + 1])):
+            c = np.uint32(indices[k])
+            i = np.uint64(at[c >> np.uint32(PANEL_BITS)])
+            at[c >> np.uint32(PANEL_BITS)] = i + 1
+            out_rows[i], out_cols[i], out_weights[i] = r, c & np.uint32((1 << PANEL_BITS) - 1), data[k]
+    return starts, out_rows, out_cols, out_weights, sky, back, lost
 
 
 @intrinsic
@@ -818,63 +844,34 @@ def item_buffer_times(seen, weights, B):
     return out[:, :3]
 
 
-PANEL_BITS = 16  # a panel is 2^16 columns of F: its slice of B (768 KiB) stays in a core's L2 cache
-
-
-def panel_count(n_cols: int) -> int:
-    """Column panels (PANEL_BITS) of a matrix of n_cols columns."""
-    return (n_cols >> PANEL_BITS) + 1
-
-
 @nb.njit(cache=True, nogil=True)
-def panel_counts(indptr, indices, panels):
-    """(panels,) int64: the entries of CSR rows (indptr (R+1,), int32 columns) in each column
-    panel (PANEL_BITS): the first half of a counting sort into panel-major order (`panel_fill`)."""
-    counts = np.zeros(panels, np.int64)
-    for k in range(indptr[-1]):
-        counts[indices[k] >> PANEL_BITS] += 1
-    return counts
-
-
-@nb.njit(cache=True, nogil=True)
-def panel_fill(indptr, indices, data, first_row, at, rows, cols, weights):
-    """The second half: write CSR rows (f32, int32 columns), rows first_row.. of a block of
-    at most 2^16, into the block panel-major, column panel by column panel, rows ascending
-    within a panel: rows (u16, the block's row), cols (u16, the column within its panel)
-    and weights (f32) from position at[p] on for panel p (at: (panels,) int64, advanced in
-    place)."""
-    for r in range(indptr.shape[0] - 1):
-        for k in range(indptr[r], indptr[r + 1]):
-            c = indices[k]
-            i = at[c >> PANEL_BITS]
-            at[c >> PANEL_BITS] = i + 1
-            rows[i] = first_row + r
-            cols[i] = c & ((1 << PANEL_BITS) - 1)
-            weights[i] = data[k]
-
-
-@nb.njit(cache=True, nogil=True)
-def panel_by_columns(starts, p, rows, cols, weights):
-    """Put panel p's entries (starts[p]..starts[p + 1] of a `panel_fill`ed block) in column
-    order in place (a stable counting sort through scratch the size of the panel: rows
-    ascending within a column), for `panel_times_rgb`."""
-    first, last = starts[p], starts[p + 1]
-    at = np.zeros((1 << PANEL_BITS) + 1, np.int32)
-    for k in range(first, last):
-        at[cols[k] + 1] += 1
+def panel_in_column_order(p, piece_starts, first_rows, piece_rows, piece_cols, piece_weights, rows, cols, weights):
+    """Write column panel p of a block from its pieces (`item_buffer_rows`' rows, one piece
+    after the other: piece_starts (K, panels + 1) int64, first_rows (K,) int64 the block's row
+    of each piece's first, and typed Lists of their K rows, cols and weights) in column
+    order, rows ascending within a column, into rows, cols and weights (views of the block's
+    panel p): a stable counting sort by column of the pieces' panel-p entries, taken piece
+    by piece in row order, through a histogram the size of the panel."""
+    at = np.zeros((1 << PANEL_BITS) + 1, np.uint32)  # unsigned indices spare numba's negative-index checks
+    for k in range(len(piece_cols)):
+        cols_k = piece_cols[k]
+        for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
+            at[cols_k[i] + np.uint32(1)] += 1
     for c in range(1 << PANEL_BITS):
         at[c + 1] += at[c]
-    by_rows, by_cols, by_weights = rows[first:last].copy(), cols[first:last].copy(), weights[first:last].copy()
-    for k in range(last - first):
-        i = first + at[by_cols[k]]
-        at[by_cols[k]] += 1
-        rows[i], cols[i], weights[i] = by_rows[k], by_cols[k], by_weights[k]
+    for k in range(len(piece_cols)):
+        rows_k, cols_k, weights_k, first_row = piece_rows[k], piece_cols[k], piece_weights[k], np.uint16(first_rows[k])
+        for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
+            c = cols_k[i]
+            j = at[c]
+            at[c] = j + np.uint32(1)
+            rows[j], cols[j], weights[j] = first_row + rows_k[i], c, weights_k[i]
 
 
 @nb.njit(cache=True, nogil=True)
 def panel_times_rgb(starts, rows, cols, weights, B, n_rows):
-    """(n_rows, 3) f32 product of a panel-major block (`panel_fill`, each panel in column
-    order, `panel_by_columns`) with B (N, 3) f32 C-contiguous, on the calling thread. Panel
+    """(n_rows, 3) f32 product of a panel-major block (each panel in column order,
+    `panel_in_column_order`) with B (N, 3) f32 C-contiguous, on the calling thread. Panel
     by panel, the block's reads of B stay in one 2^16-row slice and its sums in an n_rows x 4
     array, both cache-resident (row by row over a CSR matrix whose B is larger than the
     caches, every read missed: 3x slower). In column order, consecutive entries add into

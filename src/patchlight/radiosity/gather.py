@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays, row_angles
@@ -39,14 +38,31 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
 
 
 @dataclass
+class PanelRows:
+    """Consecutive rows of F column panel by column panel (`_kernels.PANEL_BITS` columns
+    each): panel p's entries are starts[p]..starts[p + 1] (starts: (panels + 1,) int64),
+    each with its row among the n_rows (rows u16), its column within the panel (cols u16)
+    and its weight (weights f32); a chunk's rows (`_kernels.item_buffer_rows`) keep each
+    panel in row order."""
+
+    starts: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    weights: np.ndarray
+    n_rows: int
+
+    @property
+    def nbytes(self) -> int:
+        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
+
+
+@dataclass
 class GatherRows:
     """Rows of the gather for some patches. F: their rows of F in pieces of consecutive rows,
-    one per chunk, (R_i, N) CSR f32 each; panel_counts: (pieces, panels) int64 each piece's
-    entries in each column panel (`_kernels.panel_counts`); S: (R, 3) f32 constant term;
-    back_fraction: (R,) share of rays that hit back faces; lost: rays on uncovered texels."""
+    one PanelRows per chunk; S: (R, 3) f32 constant term; back_fraction: (R,) share of rays
+    that hit back faces; lost: rays on uncovered texels."""
 
-    F: list[sp.csr_matrix]
-    panel_counts: np.ndarray
+    F: list[PanelRows]
     S: np.ndarray
     back_fraction: np.ndarray
     lost: int
@@ -73,6 +89,7 @@ class Gatherer:
         self.emitting = _kernels.emitting_patches(patches.emission)
         self.emits = bool(np.any(self.emitting[1]))
         self.ranks = _kernels.texel_ranks(patches.index)
+        self.panels = _kernels.panel_count(len(patches))
         if method == "hemicube":
             self.dirs, self.weights = multiplier_map(size)
         elif method == "stratified":
@@ -112,10 +129,8 @@ class Gatherer:
         else:
             parts = self.tracer.map(lambda chunk: self.gather_chunk(chunk, progress), chunks)
         if not parts:
-            return GatherRows([], np.zeros((0, _kernels.panel_count(len(self.patches))), np.int64),
-                              np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
+            return GatherRows([], np.zeros((0, 3), np.float32), np.zeros(0, np.float32), 0)
         return GatherRows([piece for p in parts for piece in p.F],
-                          np.concatenate([p.panel_counts for p in parts]),
                           np.concatenate([p.S for p in parts]),
                           np.concatenate([p.back_fraction for p in parts]),
                           sum(p.lost for p in parts))
@@ -164,14 +179,12 @@ class Gatherer:
         sky_dirs = _kernels.sky_directions(seen, dirs)
         radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
                     else np.zeros((len(sky_dirs), 3), np.float32))
-        indptr, indices, data, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance)
+        *entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels)
         if self.emits:
             S += self._emission_seen(seen, hits, dirs)
-        F = sp.csr_matrix((data, indices, indptr), shape=(len(rows), len(self.patches)))
-        counts = _kernels.panel_counts(indptr, indices, _kernels.panel_count(len(self.patches)))
         if progress is not None:
             progress(len(rows))
-        return GatherRows([F], counts[None], S, back, lost)
+        return GatherRows([PanelRows(*entries, len(rows))], S, back, lost)
 
     def emission_shares(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R * D,) f32 the share of its emission each ray counts: 1 on emitters without

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
+from numba.typed import List
 
 from . import _kernels, adaptive
-from .gather import Gatherer
+from .gather import Gatherer, PanelRows
 
 
 ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time, kept as one PanelBlock (at most 2^16 rows)
@@ -55,8 +55,8 @@ class FormFactors:
         self.id_parts.append(rows)
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
-        if self.kept and self.nbytes + sum(_csr_bytes(piece) for piece in g.F) <= self.budget:
-            self.blocks.append(PanelBlock.of(g.F, g.panel_counts, self.gatherer.tracer.map))
+        if self.kept and self.nbytes + sum(piece.nbytes for piece in g.F) <= self.budget:
+            self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -93,45 +93,35 @@ class FormFactors:
         return int(sum(block.nbytes for block in self.blocks))
 
 
-@dataclass
-class PanelBlock:
-    """Rows of F (a gathered block, at most 2^16) column panel by column panel, each panel
-    in column order (`_kernels.panel_fill`, `panel_by_columns`): the unit of F B one core
-    multiplies at a time."""
-
-    starts: np.ndarray
-    rows: np.ndarray
-    cols: np.ndarray
-    weights: np.ndarray
-    n_rows: int
+class PanelBlock(PanelRows):
+    """Rows of F (a gathered block, at most 2^16) as PanelRows whose panels are each in column
+    order, rows ascending within a column: the unit of F B one core multiplies at a time."""
 
     @classmethod
-    def of(cls, pieces: list[sp.csr_matrix], counts: np.ndarray, run) -> PanelBlock:
-        """The rows of `pieces` (CSR (R_i, N) each, one after the other, at most 2^16 rows in
-        all; counts: (pieces, panels) their `_kernels.panel_counts`) reordered on `run`
-        (Tracer.map): each piece writes its entries panel by panel where the pieces before
-        it end, then each panel is put in column order in place. Empties `pieces`."""
-        n_rows = sum(piece.shape[0] for piece in pieces)
+    def of(cls, pieces: list[PanelRows], run) -> PanelBlock:
+        """The rows of `pieces` (the gather's chunks, one after the other, at most 2^16 rows in
+        all) put together panel by panel on `run` (Tracer.map): each panel's task sorts the
+        pieces' entries of its panel by column into the block. Empties `pieces`."""
+        n_rows = sum(piece.n_rows for piece in pieces)
         if n_rows > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
-        starts = np.concatenate([[0], np.cumsum(counts.sum(axis=0))])
-        at = starts[:-1] + np.cumsum(counts, axis=0) - counts  # where each piece's entries of each panel go
-        first_rows = np.cumsum([0] + [piece.shape[0] for piece in pieces])
+        if not pieces:
+            return cls(np.zeros(1, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16), np.zeros(0, np.float32), 0)
+        piece_starts = np.stack([piece.starts for piece in pieces])
+        starts = piece_starts.sum(axis=0)  # each panel starts where it starts in the pieces together
+        first_rows = np.cumsum([0] + [piece.n_rows for piece in pieces[:-1]])
+        parts = [List([getattr(piece, name) for piece in pieces]) for name in ("rows", "cols", "weights")]
+        pieces.clear()  # the lists keep the pieces' arrays until the block is made, no longer
         nnz = int(starts[-1])
         entries = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
-        run(lambda k: _kernels.panel_fill(pieces[k].indptr, pieces[k].indices, pieces[k].data, first_rows[k],
-                                          at[k], *entries), list(range(len(pieces))))
-        pieces.clear()  # let the CSR go: at most the CSR and the entries at once
-        run(lambda p: _kernels.panel_by_columns(starts, p, *entries), list(range(counts.shape[1])))
+        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, *parts,
+                                                     *(e[starts[p]:starts[p + 1]] for e in entries)),
+            list(range(len(starts) - 1)))
         return cls(starts, *entries, n_rows)
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
         return _kernels.panel_times_rgb(self.starts, self.rows, self.cols, self.weights, B, self.n_rows)
-
-    @property
-    def nbytes(self) -> int:
-        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
 
 
 def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
@@ -139,10 +129,6 @@ def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
     if len(parts) != 1:
         parts[:] = [np.concatenate(parts) if parts else empty]
     return parts[0]
-
-
-def _csr_bytes(F: sp.csr_matrix) -> int:
-    return F.data.nbytes + F.indices.nbytes + F.indptr.nbytes
 
 
 @dataclass
