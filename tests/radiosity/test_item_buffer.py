@@ -99,6 +99,11 @@ def test_the_rows_of_an_item_buffer_sum_each_rows_rays_panel_by_panel():
     panels = _kernels.panel_count(n)
     got = _kernels.item_buffer_rows(seen, weights, radiance, panels)
     expected = _rows_one_ray_at_a_time(seen, weights, radiance, panels)
-    assert got[1].dtype == got[2].dtype == np.uint16 and got[3].dtype == np.float32 and got[-1] == expected[-1]
-    for a, b in zip(got[:-1], expected[:-1]):
-        np.testing.assert_array_equal(a, b)
+    starts, entries, sky, back, lost = got
+    assert entries.dtype == np.uint64 and lost == expected[-1]
+    np.testing.assert_array_equal(starts, expected[0])
+    np.testing.assert_array_equal(entries & 0xFFFF, expected[1])  # the row
+    np.testing.assert_array_equal(entries >> 16 & 0xFFFF, expected[2])  # the column within the panel
+    np.testing.assert_array_equal((entries >> 32).astype(np.uint32).view(np.float32), expected[3])
+    np.testing.assert_array_equal(sky, expected[4])
+    np.testing.assert_array_equal(back, expected[5])

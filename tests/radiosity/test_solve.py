@@ -42,9 +42,9 @@ def _pieces(n_cols, cuts, rays=24, seed=3):
     seen[:, ::3] = seen[:, :1]  # duplicates within a row
     pieces = []
     for a, b in zip(cuts[:-1], cuts[1:]):
-        starts, rows, cols, w, *_ = _kernels.item_buffer_rows(seen[a:b].ravel(), weights, np.ones((rays * (b - a), 3),
-                                                              np.float32), _kernels.panel_count(n_cols))
-        pieces.append(PanelRows(starts, rows, cols, w, b - a))
+        starts, entries, *_ = _kernels.item_buffer_rows(seen[a:b].ravel(), weights, np.ones((rays * (b - a), 3),
+                                                        np.float32), _kernels.panel_count(n_cols))
+        pieces.append(PanelRows(starts, entries, b - a))
     hit = seen >= 0
     F = sp.csr_matrix((np.broadcast_to(weights, seen.shape)[hit], (np.nonzero(hit)[0], seen[hit])),
                       shape=(cuts[-1], n_cols), dtype=np.float32)
@@ -90,11 +90,10 @@ def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
         return [fn(item) for item in items]
 
     assert PanelBlock.of([], run).times(np.ones((70000, 3), np.float32)).shape == (0, 3)
-    one = PanelRows(np.array([0, 1, 2]), np.uint16([0, 0]), np.uint16([5, 0]), np.float32([2.0, 3.0]), 1)
-    block = PanelBlock.of([one], run)  # columns 5 and 65536
+    words = (np.float32([2.0, 3.0]).view(np.uint32).astype(np.uint64) << 32) | (np.uint64([5, 0]) << 16)
+    block = PanelBlock.of([PanelRows(np.array([0, 1, 2]), words, 1)], run)  # row 0: columns 5 and 65536
     np.testing.assert_array_equal(block.times(np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
-    many = PanelRows(np.zeros(2, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16), np.zeros(0, np.float32),
-                     65537)
+    many = PanelRows(np.zeros(2, np.int64), np.zeros(0, np.uint64), 65537)
     with pytest.raises(ValueError, match="2\\^16 rows"):
         PanelBlock.of([many], run)
 

@@ -724,6 +724,15 @@ def panel_count(n_cols: int) -> int:
     return (n_cols >> PANEL_BITS) + 1
 
 
+@nb.njit(cache=True, inline="always")
+def entry_word(row, column, weight_bits):
+    """One entry of F as a u64: its f32 weight's bits (u32), the column within its panel (16
+    bits) and the row (16 bits), from high to low. A row offset added to the word moves the
+    row alone (rows stay below 2^16)."""
+    return ((np.uint64(weight_bits) << np.uint64(32))
+            | (np.uint64(column & ((1 << PANEL_BITS) - 1)) << np.uint64(16)) | np.uint64(row))
+
+
 @nb.njit(cache=True, nogil=True)
 def item_buffer_rows(seen, weights, sky_radiance, panels):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
@@ -732,13 +741,13 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order;
     panels: column panels of F (`panel_count`). Returns the rows column panel by column panel
     (starts (panels + 1,) int64: panel p's entries are starts[p]..starts[p + 1], in row order,
-    a row's in first-seen order, duplicates summed; rows u16 the row among the R, cols u16
-    the column within its panel, weights f32), the sky term (R, 3), the share of each patch's
-    rays that hit back faces (R,) and the number of LOST rays. Duplicates meet in a hash
-    table of 4 D slots (a quarter full at most: few collisions), each holding a patch id and
-    where its entry is; an entry placed before the row's first is a free slot, so the table
-    is never cleared: scratch space and work per ray stay constant however large the
-    lightmap. The entries, counted per panel as they appear, are then dealt to their panels.
+    a row's in first-seen order, duplicates summed; entries u64, each an `entry_word`), the
+    sky term (R, 3), the share of each patch's rays that hit back faces (R,) and the number
+    of LOST rays. Duplicates meet in a hash table of 4 D slots (a quarter full at most: few
+    collisions), each holding a patch id and where its entry is; an entry placed before the
+    row's first is a free slot, so the table is never cleared: scratch space and work per
+    ray stay constant however large the lightmap. The entries, counted per panel as they
+    appear, are then dealt to their panels, one word each.
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
@@ -791,14 +800,15 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     for p in range(panels):
         starts[p + 1] += starts[p]
     at = starts[:-1].copy()
-    out_rows, out_cols, out_weights = np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32)
+    entries = np.empty(nnz, np.uint64)
+    weight_bits = data.view(np.uint32)
     for r in range(rows):
         for k in range(np.uint64(indptr[r]), np.uint64(indptr[r + 1])):
             c = np.uint32(indices[k])
             i = np.uint64(at[c >> np.uint32(PANEL_BITS)])
             at[c >> np.uint32(PANEL_BITS)] = i + 1
-            out_rows[i], out_cols[i], out_weights[i] = r, c & np.uint32((1 << PANEL_BITS) - 1), data[k]
-    return starts, out_rows, out_cols, out_weights, sky, back, lost
+            entries[i] = entry_word(r, c, weight_bits[k])
+    return starts, entries, sky, back, lost
 
 
 @intrinsic
@@ -845,27 +855,34 @@ def item_buffer_times(seen, weights, B):
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_in_column_order(p, piece_starts, first_rows, piece_rows, piece_cols, piece_weights, rows, cols, weights):
+def panel_in_column_order(p, piece_starts, first_rows, pieces, rows, cols, weights):
     """Write column panel p of a block from its pieces (`item_buffer_rows`' rows, one piece
-    after the other: piece_starts (K, panels + 1) int64, first_rows (K,) int64 the block's row
-    of each piece's first, and typed Lists of their K rows, cols and weights) in column
-    order, rows ascending within a column, into rows, cols and weights (views of the block's
-    panel p): a stable counting sort by column of the pieces' panel-p entries, taken piece
-    by piece in row order, through a histogram the size of the panel."""
+    after the other: piece_starts (K, panels + 1) int64, first_rows (K,) int64 the block's
+    row of each piece's first, pieces a typed List of their K entry words) in column order,
+    rows ascending within a column, into rows (u16), cols (u16) and weights (f32), the
+    block's panel p: a stable counting sort by column of the pieces' panel-p words, taken
+    piece by piece in row order, through a histogram the size of the panel. The words are
+    sorted whole (one scattered write each, not three), then split in order."""
     at = np.zeros((1 << PANEL_BITS) + 1, np.uint32)  # unsigned indices spare numba's negative-index checks
-    for k in range(len(piece_cols)):
-        cols_k = piece_cols[k]
+    for k in range(len(pieces)):
+        words = pieces[k]
         for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
-            at[cols_k[i] + np.uint32(1)] += 1
+            at[((words[i] >> np.uint64(16)) & np.uint64(0xFFFF)) + np.uint64(1)] += 1
     for c in range(1 << PANEL_BITS):
         at[c + 1] += at[c]
-    for k in range(len(piece_cols)):
-        rows_k, cols_k, weights_k, first_row = piece_rows[k], piece_cols[k], piece_weights[k], np.uint16(first_rows[k])
+    sorted_words = np.empty(rows.shape[0], np.uint64)
+    for k in range(len(pieces)):
+        words, first_row = pieces[k], np.uint64(first_rows[k])
         for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
-            c = cols_k[i]
+            c = (words[i] >> np.uint64(16)) & np.uint64(0xFFFF)
             j = at[c]
             at[c] = j + np.uint32(1)
-            rows[j], cols[j], weights[j] = first_row + rows_k[i], c, weights_k[i]
+            sorted_words[j] = words[i] + first_row
+    weight_bits = weights.view(np.uint32)
+    for j in range(sorted_words.shape[0]):
+        word = sorted_words[j]
+        rows[j], cols[j] = word & np.uint64(0xFFFF), (word >> np.uint64(16)) & np.uint64(0xFFFF)
+        weight_bits[j] = word >> np.uint64(32)
 
 
 @nb.njit(cache=True, nogil=True)

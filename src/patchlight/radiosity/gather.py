@@ -39,21 +39,18 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
 
 @dataclass
 class PanelRows:
-    """Consecutive rows of F column panel by column panel (`_kernels.PANEL_BITS` columns
-    each): panel p's entries are starts[p]..starts[p + 1] (starts: (panels + 1,) int64),
-    each with its row among the n_rows (rows u16), its column within the panel (cols u16)
-    and its weight (weights f32); a chunk's rows (`_kernels.item_buffer_rows`) keep each
-    panel in row order."""
+    """Consecutive rows of F, one chunk's (`_kernels.item_buffer_rows`), column panel by column
+    panel (`_kernels.PANEL_BITS` columns each), each panel in row order: panel p's entries
+    are starts[p]..starts[p + 1] (starts: (panels + 1,) int64) of entries, u64 words
+    (`_kernels.entry_word`: weight, column within the panel, row among the n_rows)."""
 
     starts: np.ndarray
-    rows: np.ndarray
-    cols: np.ndarray
-    weights: np.ndarray
+    entries: np.ndarray
     n_rows: int
 
     @property
     def nbytes(self) -> int:
-        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
+        return self.starts.nbytes + self.entries.nbytes
 
 
 @dataclass
@@ -179,12 +176,12 @@ class Gatherer:
         sky_dirs = _kernels.sky_directions(seen, dirs)
         radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
                     else np.zeros((len(sky_dirs), 3), np.float32))
-        *entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels)
+        starts, entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels)
         if self.emits:
             S += self._emission_seen(seen, hits, dirs)
         if progress is not None:
             progress(len(rows))
-        return GatherRows([PanelRows(*entries, len(rows))], S, back, lost)
+        return GatherRows([PanelRows(starts, entries, len(rows))], S, back, lost)
 
     def emission_shares(self, seen: np.ndarray, hits, dirs: np.ndarray) -> np.ndarray:
         """(R * D,) f32 the share of its emission each ray counts: 1 on emitters without

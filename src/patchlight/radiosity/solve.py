@@ -93,9 +93,18 @@ class FormFactors:
         return int(sum(block.nbytes for block in self.blocks))
 
 
-class PanelBlock(PanelRows):
-    """Rows of F (a gathered block, at most 2^16) as PanelRows whose panels are each in column
-    order, rows ascending within a column: the unit of F B one core multiplies at a time."""
+@dataclass
+class PanelBlock:
+    """Rows of F (a gathered block, at most 2^16) column panel by column panel, each panel in
+    column order, rows ascending within a column: panel p's entries are starts[p]..starts[p + 1]
+    of rows (u16, the block's row), cols (u16, the column within the panel) and weights (f32).
+    The unit of F B one core multiplies at a time."""
+
+    starts: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    weights: np.ndarray
+    n_rows: int
 
     @classmethod
     def of(cls, pieces: list[PanelRows], run) -> PanelBlock:
@@ -110,11 +119,11 @@ class PanelBlock(PanelRows):
         piece_starts = np.stack([piece.starts for piece in pieces])
         starts = piece_starts.sum(axis=0)  # each panel starts where it starts in the pieces together
         first_rows = np.cumsum([0] + [piece.n_rows for piece in pieces[:-1]])
-        parts = [List([getattr(piece, name) for piece in pieces]) for name in ("rows", "cols", "weights")]
-        pieces.clear()  # the lists keep the pieces' arrays until the block is made, no longer
+        words = List([piece.entries for piece in pieces])
+        pieces.clear()  # the list keeps the pieces' words until the block is made, no longer
         nnz = int(starts[-1])
         entries = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
-        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, *parts,
+        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, words,
                                                      *(e[starts[p]:starts[p + 1]] for e in entries)),
             list(range(len(starts) - 1)))
         return cls(starts, *entries, n_rows)
@@ -122,6 +131,10 @@ class PanelBlock(PanelRows):
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
         return _kernels.panel_times_rgb(self.starts, self.rows, self.cols, self.weights, B, self.n_rows)
+
+    @property
+    def nbytes(self) -> int:
+        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
 
 
 def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
