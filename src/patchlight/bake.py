@@ -93,8 +93,8 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
     add_direct(sums, patches, scene.baked_lights, per_light)
     if sampled:
         side = math.isqrt(gatherer.nee_samples)
-        add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows),
-                     gatherer.offset, gatherer.tracer, gatherer.seed)
+        add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, points, side, gatherer.offset,
+                     gatherer.tracer, gatherer.seed)
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
 
@@ -150,7 +150,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             samples = samples_per_texel(settings.emitter_samples)
             if emitters is not None and samples > 0:
                 side = math.isqrt(samples)
-                direct += emitter_light(emitters, patches, gatherer.tri_uv1, lambda rows: points(side, rows), offset, tracer,
+                direct += emitter_light(emitters, patches, gatherer.tri_uv1, points, side, offset, tracer,
                                         gatherer.rays_per_patch, settings.seed)
                 gatherer.emitters, gatherer.nee_samples = emitters, samples
         rays_direct = tracer.rays_traced

@@ -170,3 +170,22 @@ def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that
             pytest.fail(f"triangle {t} lies inside the uniform block")
     assert np.all(patch[:40] >= 0) and np.count_nonzero(patch[40:80] < 0) > 30
     assert patch[80] == -1 and patch[81] >= 0  # the first touches texel column 9 (and 1: uncovered)
+
+
+def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
+    """_emitters_picked against np.searchsorted (the number of cdf values <= each pick, at
+    most M - 1), for 1 to 9 emitters, emitters of no power (repeated cdf values) among them
+    and picks exactly on cdf values."""
+    from patchlight.radiosity._kernels import _emitters_picked
+    from numba import njit
+
+    picked = njit(lambda out, pick, cdf: _emitters_picked(out, pick, cdf))
+    rng = np.random.default_rng(3)
+    for m in range(1, 10):
+        power = rng.random(m) * (rng.random(m) > 0.3)
+        power[-1] = 1.0
+        cdf = np.cumsum(power / power.sum())
+        pick = np.concatenate([rng.random(64), cdf[:-1], [0.0]])
+        out = np.empty(len(pick), np.int64)
+        picked(out, pick, cdf)
+        np.testing.assert_array_equal(out, np.minimum(np.searchsorted(cdf, pick, side="right"), m - 1))

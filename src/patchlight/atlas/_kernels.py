@@ -329,41 +329,47 @@ def affine_barycentrics(px, py, ax, ay, bx, by, cx, cy):
     return 1.0 - l1 - l2, l1, l2
 
 
-@njit(cache=True, nogil=True)
-def sub_texel_points(rows, texel_x, texel_y, triangle, position, tex, corners, rim, n):
-    """(R, n*n, 3) f64 points on an n x n grid of sub-texel centres over the texels of
-    patches `rows` (R,), on the plane of each patch's triangle (`atlas.raster.TexelPoints`).
+@njit(cache=True, inline="always")
+def texel_points(out, p, grid, n, across):
+    """Write into out (n*n, 3) f64 the points of patch p on an n x n grid of sub-texel centres
+    over its texel, on the plane of its triangle; across (n,): (arange(n) + 0.5) / n.
 
-    tex (T, 3, 2) f64 corners in texel units; corners (T, 3, 3) f64 world corners; rim (T, 3)
-    bool edges 01, 12, 20 on a chart's rim; position (N, 3) the patches' own points, taken
-    where a point falls past a rim edge or the triangle has no UV area."""
-    k_count = n * n
-    out = np.empty((rows.shape[0], k_count, 3))
+    grid: (texel_x, texel_y, triangle, position, tex, corners, rim) of `atlas.raster.TexelPoints`:
+    the patches' texels and triangles, their own points (N, 3), taken where a point falls past
+    a rim edge or the triangle has no UV area; tex (T, 3, 2) f64 corners in texel units;
+    corners (T, 3, 3) f64 world corners; rim (T, 3) bool edges 01, 12, 20 on a chart's rim."""
+    texel_x, texel_y, triangle, position, tex, corners, rim = grid
+    t = triangle[p]
+    ax, ay = tex[t, 0, 0], tex[t, 0, 1]
+    e1x, e1y = tex[t, 1, 0] - ax, tex[t, 1, 1] - ay
+    e2x, e2y = tex[t, 2, 0] - ax, tex[t, 2, 1] - ay
+    det = e1x * e2y - e1y * e2x
+    flat = abs(det) <= 1e-12
+    safe = 1.0 if flat else det
+    rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
+    for i in range(n):
+        dx = texel_x[p] + across[i] - ax
+        for j in range(n):
+            k = i * n + j
+            dy = texel_y[p] + across[j] - ay
+            w1 = (dx * e2y - dy * e2x) / safe
+            w2 = (e1x * dy - e1y * dx) / safe
+            w0 = 1.0 - w1 - w2
+            if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
+                for a in range(3):
+                    out[k, a] = position[p, a]
+            else:
+                for a in range(3):
+                    out[k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
+
+
+@njit(cache=True, nogil=True)
+def sub_texel_points(rows, grid, n):
+    """(R, n*n, 3) f64 the `texel_points` of patches `rows` (R,)."""
+    out = np.empty((rows.shape[0], n * n, 3))
     across = (np.arange(n) + 0.5) / n  # the sub-texel centres within a texel, texel units
     for r in range(rows.shape[0]):
-        p = rows[r]
-        t = triangle[p]
-        ax, ay = tex[t, 0, 0], tex[t, 0, 1]
-        e1x, e1y = tex[t, 1, 0] - ax, tex[t, 1, 1] - ay
-        e2x, e2y = tex[t, 2, 0] - ax, tex[t, 2, 1] - ay
-        det = e1x * e2y - e1y * e2x
-        flat = abs(det) <= 1e-12
-        safe = 1.0 if flat else det
-        rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
-        for i in range(n):
-            dx = texel_x[p] + across[i] - ax
-            for j in range(n):
-                k = i * n + j
-                dy = texel_y[p] + across[j] - ay
-                w1 = (dx * e2y - dy * e2x) / safe
-                w2 = (e1x * dy - e1y * dx) / safe
-                w0 = 1.0 - w1 - w2
-                if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
-                    for a in range(3):
-                        out[r, k, a] = position[p, a]
-                else:
-                    for a in range(3):
-                        out[r, k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
+        texel_points(out[r], rows[r], grid, n, across)
     return out
 
 

@@ -137,9 +137,11 @@ class TexelPoints:
 
     def __init__(self, scene: Scene, patches: Patches):
         self.patches = patches
-        self.tex = scene.uv1[scene.indices] * np.array([patches.width, patches.height])  # (T, 3, 2) f64
-        self.corners = scene.positions[scene.indices].astype(np.float64)                   # (T, 3, 3)
-        self.rim = uv_boundary_edges(scene.uv1, scene.indices)                               # (T, 3): 01, 12, 20
+        tex = scene.uv1[scene.indices] * np.array([patches.width, patches.height])  # (T, 3, 2) f64
+        corners = scene.positions[scene.indices].astype(np.float64)                   # (T, 3, 3)
+        rim = uv_boundary_edges(scene.uv1, scene.indices)                               # (T, 3): 01, 12, 20
+        # what kernels read to make a texel's points themselves (`_kernels.texel_points`)
+        self.grid = (patches.texel_x, patches.texel_y, patches.triangle, patches.position, tex, corners, rim)
 
     def __call__(self, n: int, rows: np.ndarray | None = None) -> np.ndarray:
         """(R, n*n, 3) f64 the points of patches `rows` (default: all); n = 1: their positions."""
@@ -147,5 +149,4 @@ class TexelPoints:
         rows = np.arange(len(p)) if rows is None else np.asarray(rows)
         if n <= 1:
             return p.position[rows][:, None, :].astype(np.float64)
-        return _kernels.sub_texel_points(rows.astype(np.int64), p.texel_x, p.texel_y, p.triangle, p.position,
-                                         self.tex, self.corners, self.rim, n)
+        return _kernels.sub_texel_points(rows.astype(np.int64), self.grid, n)

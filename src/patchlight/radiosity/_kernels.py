@@ -7,6 +7,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from ..atlas._kernels import texel_points
 from ..rays.inside import is_back_face
 from ..rays.tracer import faces_ray
 
@@ -186,19 +187,6 @@ def _divided(x, count, inv_count):
 
 
 @nb.njit(cache=True, inline="always")
-def _upper_bound(sorted_values, x):
-    """The number of sorted_values (ascending) <= x, by binary search."""
-    lo, hi = 0, sorted_values.shape[0]
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if sorted_values[mid] <= x:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
-@nb.njit(cache=True, inline="always")
 def power_heuristic(n_a, pdf_a, n_b, pdf_b):
     """Veach's power heuristic (beta 2): the weight of technique a, n_a samples at pdf_a,
     beside technique b; weights of a and b for the same direction sum to 1."""
@@ -279,12 +267,32 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
     return True
 
 
-@nb.njit(cache=True, nogil=True)
-def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_normal, em_two_sided, em_patch,
+@nb.njit(cache=True, inline="always")
+def _emitters_picked(count, pick, cdf):
+    """count (K,) the emitter each pick (K,) in [0, 1) chooses from cdf (M,) ascending: the
+    number of cdf values <= the pick, at most M - 1; a binary search of all K picks at once,
+    without branches (the same steps for every pick)."""
+    m = cdf.shape[0]
+    step = 1
+    while step * 2 <= m:
+        step *= 2
+    count[:] = 0
+    while step > 0:
+        for j in range(count.shape[0]):
+            c = count[j] + step
+            count[j] = c if c <= m and cdf[min(c, m) - 1] <= pick[j] else count[j]
+        step >>= 1
+    for j in range(count.shape[0]):
+        count[j] = min(count[j], m - 1)
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_normal, em_two_sided, em_patch,
                  tri_uv1, width, height, index, emission, gather_rays, seed):
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
-    points: (R, K, 3) f64 points spread over the texels of patches `rows` (R,); normal (N, 3)
+    The K = side * side points of each texel of patches `rows` (R,) are made texel by texel
+    (`atlas._kernels.texel_points` of grid, `atlas.raster.TexelPoints.grid`); normal (N, 3)
     and lift (N,): the patches' normals and ray lifts (f32 or f64, read as f64). Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
     area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
@@ -297,17 +305,29 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
     unblocked (L, 3) f32: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
     `gather_rays` cosine rays (power heuristic). The other samples carry none, and a texel
     that `_faces_no_emitter` draws none at all.
+    A texel's K samples go step by step through loops over all K (each step a loop the
+    compiler turns into vector instructions, the same operations on every sample), the
+    samples that carry no light then left out; their numbers may be inf or NaN meanwhile
+    (IEEE division, error_model "numpy"), never read.
     """
-    r_count, k_count = points.shape[0], points.shape[1]
+    r_count, k_count = rows.shape[0], side * side
     n = r_count * k_count
     ray = np.empty(n, np.int64)
     origins = np.empty((n, 3), np.float32)
     dirs = np.empty((n, 3), np.float32)
     tmax = np.empty(n, np.float32)
     value = np.empty((n, 3), np.float32)
+    points = np.empty((k_count, 3))
+    across = (np.arange(side) + 0.5) / side
     perm_pick = np.empty(k_count, np.int64)
     perm_point = np.empty(k_count, np.int64)
     draws = np.empty(k_count, np.int64)
+    picked = np.empty(k_count, np.int64)
+    # per sample: its draws, origin, the picked emitter's table entries, the ray and its light
+    pick, s1, s2, lo, share, pdf_e = np.empty((6, k_count))
+    o, c, en = np.empty((3, k_count)), np.empty((9, k_count)), np.empty((3, k_count))
+    d, dist, cos_r, cos_l, f = np.empty((3, k_count)), np.empty(k_count), np.empty(k_count), np.empty(k_count), np.empty(k_count)
+    two = np.empty(k_count, np.bool_)
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
     reach = np.abs(corners).max() if m > 0 else 0.0
@@ -317,48 +337,64 @@ def emitter_rays(points, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_
         nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
         lift_p = np.float64(lift[p])
         lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
-        if _faces_no_emitter(points[r], lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
+        texel_points(points, p, grid, side, across)
+        if _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
             continue
         key = np.int64(p) * 1000003 + seed
         _shuffle(perm_pick, key, 0, draws)
         _shuffle(perm_point, key, k_count, draws)
         for j in range(k_count):
-            ox, oy, oz = points[r, j, 0] + lx, points[r, j, 1] + ly, points[r, j, 2] + lz
-            pick = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
-            e = min(_upper_bound(cdf, pick), m - 1)
-            lo = cdf[e - 1] if e > 0 else 0.0
-            share = cdf[e] - lo
-            if share <= 0.0:
-                continue
-            s1 = np.sqrt(min(max((pick - lo) / share, 0.0), 1.0))
-            s2 = _divided(perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1), k_count, inv_k)
-            bu, bv = s1 * (1.0 - s2), s1 * s2
-            bw = 1.0 - bu - bv
-            dx = bw * corners[e, 0, 0] + bu * corners[e, 1, 0] + bv * corners[e, 2, 0] - ox
-            dy = bw * corners[e, 0, 1] + bu * corners[e, 1, 1] + bv * corners[e, 2, 1] - oy
-            dz = bw * corners[e, 0, 2] + bu * corners[e, 1, 2] + bv * corners[e, 2, 2] - oz
-            dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-            if dist <= 0.0:
-                continue
-            dx, dy, dz = dx / dist, dy / dist, dz / dist
-            cos_r = nx * dx + ny * dy + nz * dz
-            cos_l = -(em_normal[e, 0] * dx + em_normal[e, 1] * dy + em_normal[e, 2] * dz)
-            if em_two_sided[e]:
-                cos_l = abs(cos_l)
-            if cos_r <= 0.0 or cos_l <= 0.0:
-                continue
-            s = em_patch[e] if em_patch[e] >= 0 else _patch_at(em_tri[e], bu, bv, tri_uv1, width, height, index)
-            if s < 0:
-                continue
-            pdf = pdf_area[em_tri[e]] * dist * dist / cos_l
-            w = power_heuristic(k_count, pdf, gather_rays, cos_r / np.pi)
-            f = _divided(cos_r / (np.pi * pdf) * w, k_count, inv_k)
-            ray[live] = r * k_count + j
-            origins[live, 0], origins[live, 1], origins[live, 2] = ox, oy, oz
-            dirs[live, 0], dirs[live, 1], dirs[live, 2] = dx, dy, dz
-            tmax[live] = dist * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
+            pick[j] = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
+        for j in range(k_count):
+            s2[j] = _divided(perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1), k_count, inv_k)
+        for j in range(k_count):
+            o[0, j], o[1, j], o[2, j] = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
+        _emitters_picked(picked, pick, cdf)
+        for j in range(k_count):
+            e = picked[j]
+            lo[j] = cdf[e - 1] if e > 0 else 0.0
+            share[j] = cdf[e] - lo[j]
+            pdf_e[j] = pdf_area[em_tri[e]]
+            two[j] = em_two_sided[e]
             for a in range(3):
-                value[live, a] = f * emission[s, a]
+                en[a, j] = em_normal[e, a]
+                for q in range(3):
+                    c[3 * q + a, j] = corners[e, q, a]
+        for j in range(k_count):
+            s1[j] = np.sqrt(min(max((pick[j] - lo[j]) / share[j], 0.0), 1.0))
+        for a in range(3):  # from the origin to the point (bw, bu, bv) on the emitter
+            for j in range(k_count):
+                bu, bv = s1[j] * (1.0 - s2[j]), s1[j] * s2[j]
+                d[a, j] = (1.0 - bu - bv) * c[a, j] + bu * c[3 + a, j] + bv * c[6 + a, j] - o[a, j]
+        for j in range(k_count):
+            dist[j] = np.sqrt(d[0, j] * d[0, j] + d[1, j] * d[1, j] + d[2, j] * d[2, j])
+        for a in range(3):
+            for j in range(k_count):
+                d[a, j] = d[a, j] / dist[j]
+        for j in range(k_count):
+            cos_r[j] = nx * d[0, j] + ny * d[1, j] + nz * d[2, j]
+        for j in range(k_count):
+            cos = -(en[0, j] * d[0, j] + en[1, j] * d[1, j] + en[2, j] * d[2, j])
+            cos_l[j] = abs(cos) if two[j] else cos
+        for j in range(k_count):
+            pdf = pdf_e[j] * dist[j] * dist[j] / cos_l[j]
+            w = power_heuristic(k_count, pdf, gather_rays, cos_r[j] / np.pi)
+            f[j] = _divided(cos_r[j] / (np.pi * pdf) * w, k_count, inv_k)
+        for j in range(k_count):
+            if share[j] <= 0.0 or dist[j] <= 0.0 or cos_r[j] <= 0.0 or cos_l[j] <= 0.0:
+                continue
+            e = picked[j]
+            s = em_patch[e]
+            if s < 0:
+                s = _patch_at(em_tri[e], s1[j] * (1.0 - s2[j]), s1[j] * s2[j], tri_uv1, width, height, index)
+                if s < 0:
+                    continue
+            ray[live] = r * k_count + j
+            for a in range(3):
+                origins[live, a] = o[a, j]
+                dirs[live, a] = d[a, j]
+                value[live, a] = f[j] * emission[s, a]
+            tmax[live] = dist[j] * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
             live += 1
     return ray[:live], origins[:live], dirs[:live], tmax[:live], value[:live]
 

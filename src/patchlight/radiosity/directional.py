@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..atlas.patches import Patches
+from ..atlas.raster import TexelPoints
 from ..shading.directional import LUMINANCE, Y00, Y1, DirectionalLightmap
 from . import _kernels
 from .gather import Gatherer
@@ -118,21 +119,20 @@ def add_direct(sums: DirectionalSums, patches: Patches, lights, per_light: list[
         sums.add_dominant(lit, I, to_light[lit, None])
 
 
-def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.ndarray, points_of,
-                 lift: np.ndarray, tracer, seed: int) -> None:
+def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints,
+                 side: int, lift: np.ndarray, tracer, seed: int) -> None:
     """Add the emitters' direct light from the directions it arrives along: the direct stage's
-    next-event samples (points_of(rows): (R, K, 3) points per texel of patches `rows`), each at
+    next-event samples (from a side x side grid of `points` over each texel), each at
     full weight (no MIS share: the gather's rays then count no emission, `gather_directions`
     with B - E)."""
     normal = np.asarray(patches.normal, np.float64)
     rows = np.arange(len(patches), dtype=np.int64)
     for start in range(0, len(rows), EMITTER_CHUNK):
         part = rows[start:start + EMITTER_CHUNK]
-        points = points_of(part)
-        k = points.shape[1]
+        k = side * side
         e = emitters
         ray, origins, live_dirs, tmax, live_value = _kernels.emitter_rays(
-            points, normal, np.asarray(lift, np.float64), part, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals,
+            points.grid, side, normal, np.asarray(lift, np.float64), part, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals,
             e.two_sided, e.patch, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
         live_value[tracer.occluded(origins, live_dirs, tmax)] = 0.0
         dirs = np.zeros((len(part) * k, 3))

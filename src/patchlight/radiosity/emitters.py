@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..atlas.patches import Patches
+from ..atlas.raster import TexelPoints
 from ..rays.inside import two_sided_triangles
 from ..rays.tracer import Tracer
 from ..scene.model import Scene, face_normals
@@ -81,23 +82,22 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
                     pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
 
 
-def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points_of,
+def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
                   lift: np.ndarray, tracer: Tracer, gather_rays: int, seed: int = 1) -> np.ndarray:
     """(N, 3) f32 incident light from the emitters at every patch, the mean over its texel:
-    points_of(rows) gives (R, K, 3) points spread over the texels of patches `rows`, one
-    shadow ray each (K samples per texel; made chunk by chunk on the tracer's threads); lift
+    one shadow ray from each point of a side x side grid over the texel (`points`, made by
+    the kernel texel by texel, chunks of texels on the tracer's threads); lift
     (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
     e = emitters
     out = np.zeros((len(patches), 3), np.float32)
 
     def chunk(first, last):
         rows = np.arange(first, last, dtype=np.int64)
-        points = points_of(rows)
         ray, origins, dirs, tmax, value = _kernels.emitter_rays(
-            points, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
+            points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
             tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
-        _kernels.unblocked_sums(value, ray, blocked, points.shape[1], out[first:last])
+        _kernels.unblocked_sums(value, ray, blocked, side * side, out[first:last])
 
     tracer.over_spans(chunk, 0, len(patches), TEXELS_PER_CHUNK)
     return out
