@@ -92,7 +92,7 @@ def test_interpolation_in_spans_equals_the_sequential_sweep(plan, one_by_one):
                         p=[0.3, 0.4, 0.2, 0.1]).astype(np.int8)
     G = _light(n, rng)
     expected = _interpolate_reference(G, status, order)
-    np.testing.assert_array_equal(adaptive.interpolate(G, adaptive.program(status, order, one_by_one), one_by_one), expected)
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, one_by_one), expected)
 
 
 def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, one_by_one):
@@ -108,4 +108,4 @@ def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, one_b
         status[computed[rng.random(len(computed)) < 0.2]] = adaptive.INSIDE  # some found inside by their gather
     assert not np.any(status == adaptive.UNDECIDED) and np.count_nonzero(status == adaptive.INTERPOLATED) > 100
     expected = _interpolate_reference(G, status, order)
-    np.testing.assert_array_equal(adaptive.interpolate(G, adaptive.program(status, order, one_by_one), one_by_one), expected)
+    np.testing.assert_array_equal(adaptive.interpolate(G, status, order, one_by_one), expected)

@@ -646,41 +646,16 @@ def scatter_sum(G, ids, S, P):
 BAND_ROWS = 16  # lightmap rows of G an interpolation's wavefront advances by: with the rows behind it, they stay in cache
 
 
-SKIP = 0xFF  # the code of a target an interpolation program leaves (`program_step`)
-
-
 @nb.njit(cache=True, nogil=True)
-def program_step(have, status, targets, neighbours, computed, skipped, codes):
-    """One step's part of an interpolation program (`adaptive.program`): for targets (K,) with
-    neighbours (K, w) (-1 = none), codes (K,) u8: SKIP where the status (N,) is `computed` or
-    `skipped`, else bit j set when neighbour j `have` (N,) bool a value, their count from bit
-    4 on; a target with any is then marked in `have`. A step's neighbours are never its own
-    targets, so its spans run in any order."""
-    for k in range(targets.shape[0]):
-        t = targets[k]
-        if status[t] == computed or status[t] == skipped:
-            codes[k] = SKIP
-            continue
-        bits = count = 0
-        for j in range(neighbours.shape[1]):
-            n = neighbours[k, j]
-            if n >= 0 and have[n]:
-                bits |= 1 << j
-                count += 1
-        codes[k] = bits | (count << 4)
-        if count > 0:
-            have[t] = True
-
-
-@nb.njit(cache=True, nogil=True)
-def interpolate_rows(G, codes, targets, neighbours, starts, nb_starts, widths, row_starts, reach, lo, hi):
+def interpolate_rows(G, have, status, targets, neighbours, starts, nb_starts, widths, row_starts, reach, lo, hi,
+                     computed, skipped):
     """Fill G (N, 3) in place at the targets of each step s of the sampler's order
     (`adaptive.Order`: targets, neighbours, starts, nb_starts, widths, row_starts and reach)
-    on rows lo[s]..hi[s] - 1 (lo, hi (S,) i64), as their codes (`program_step`) say: each
-    the mean of the neighbours whose bits are set, summed in f64 in their order; none -> 0.
-    A wavefront: band after band of BAND_ROWS rows, step s runs reach[s] rows behind the
-    band's end, so the rows of the earlier steps it reads are done (a target's neighbours
-    belong to earlier steps, its rise rows away) and in cache."""
+    on rows lo[s]..hi[s] - 1 (lo, hi (S,) i64), but those whose status (N,) is `computed` or
+    `skipped`: each the mean of its neighbours (-1 = none) that `have` (N,) bool values,
+    then marked in `have`; none -> 0. A wavefront: band after band of BAND_ROWS rows, step s
+    runs reach[s] rows behind the band's end, so the rows of the earlier steps it reads are
+    done (a target's neighbours belong to earlier steps, its rise rows away) and in cache."""
     n_steps = lo.shape[0]
     done = np.empty(n_steps, np.int64)
     for s in range(n_steps):
@@ -694,21 +669,20 @@ def interpolate_rows(G, codes, targets, neighbours, starts, nb_starts, widths, r
             width = widths[s]
             at = nb_starts[s] + (done[s] - starts[s]) * width
             for k in range(done[s], end):
-                code = codes[k]
-                if code != SKIP:
+                t = targets[k]
+                if status[t] != computed and status[t] != skipped:
+                    count = 0
                     acc0 = acc1 = acc2 = 0.0
                     for j in range(width):
-                        if (code >> j) & 1:
-                            n = neighbours[at + j]
+                        n = neighbours[at + j]
+                        if n >= 0 and have[n]:
                             acc0 += G[n, 0]
                             acc1 += G[n, 1]
                             acc2 += G[n, 2]
-                    count = code >> 4
-                    inv = 1.0 if count == 1 else 0.5 if count == 2 else 0.25 if count == 4 else 0.0  # see _divided
-                    t = targets[k]
+                            count += 1
                     if count > 0:
-                        G[t, 0], G[t, 1], G[t, 2] = (_divided(acc0, count, inv), _divided(acc1, count, inv),
-                                                     _divided(acc2, count, inv))
+                        G[t, 0], G[t, 1], G[t, 2] = acc0 / count, acc1 / count, acc2 / count
+                        have[t] = True
                     else:
                         G[t, 0] = G[t, 1] = G[t, 2] = 0.0
                 at += width
@@ -759,10 +733,11 @@ def decide_targets(status, G, targets, neighbours, threshold, undecided, compute
 
 
 @nb.njit(cache=True, nogil=True)
-def zero_rows(G, ids):
-    """G[ids] = 0: rows ids (K,) of G (N, 3)."""
-    for k in range(ids.shape[0]):
-        G[ids[k], 0] = G[ids[k], 1] = G[ids[k], 2] = 0.0
+def zero_where(G, status, code):
+    """G[i] = 0 (G (n, 3)) wherever status[i] == code."""
+    for i in range(G.shape[0]):
+        if status[i] == code:
+            G[i, 0] = G[i, 1] = G[i, 2] = 0.0
 
 
 @nb.njit(cache=True, nogil=True)

@@ -148,61 +148,36 @@ def flatten(phases: list[list[Step]], height: int) -> Order:
     return Order(steps, height, targets, neighbours, starts, nb_starts, widths, row_starts, reach)
 
 
-@dataclass
-class Program:
-    """The interpolation of one state of the statuses, fixed while they stay: codes (K,) u8,
-    one for each target of the Order, `_kernels.SKIP` for those it leaves, else which of its
-    neighbours have values (bit j: neighbour j) and, above, how many (0: the target ends at
-    0); zeroed (M,) i32 the texels inside geometry, set to 0 after the fill."""
-
-    order: Order
-    codes: np.ndarray
-    zeroed: np.ndarray
-
-
-def program(status: np.ndarray, order: Order, spread) -> Program:
-    """The interpolation `status` (N,) i8 asks for (`interpolate`), made step by step in spans
-    on `spread` (Tracer.over_spans, `_kernels.program_step`). Its targets: those neither
-    computed nor, once no texel is undecided, inside geometry (only an undecided texel reads
-    one: the decided have decided neighbours). A neighbour has a value when it is computed,
-    interpolated or a target before it that read one; undecided texels thus get the mean of
-    what is known, a provisional estimate while the sampler still decides."""
-    have = (status == COMPUTED) | (status == INTERPOLATED)
-    skipped = -1 if np.any(status == UNDECIDED) else INSIDE
-    codes = np.empty(len(order.targets), np.uint8)
-    for s, step in enumerate(order.steps):
-        first = order.starts[s]
-        spread(lambda a, b: _kernels.program_step(have, status, step.targets[a:b], step.neighbours[a:b], COMPUTED,
-                                                  skipped, codes[first + a:first + b]), 0, len(step.targets))
-    return Program(order, codes, np.flatnonzero(status == INSIDE).astype(np.int32))
-
-
 INTERPOLATION_TASKS = 4  # row chunks an interpolation is cut into: more than the cores, so a busy core holds up less
 
 
-def interpolate(G: np.ndarray, program: Program, spread) -> np.ndarray:
-    """Fill G (N, 3) in place at the program's targets (`program`), in the sampler's order,
-    each the mean of its neighbours that have values, then zero the texels inside geometry. A
-    texel's value at step s depends only on rows within reach[s] of it, so chunks of rows run
-    as tasks on `spread` (Tracer.over_spans) at once, each but for the bands of rows around
-    its edges, then those bands, at once too; a task takes every step over its rows in a
-    wavefront (`_kernels.interpolate_rows`)."""
-    order = program.order
+def interpolate(G: np.ndarray, status: np.ndarray, order: Order, spread) -> np.ndarray:
+    """Fill G (N, 3) in place at interpolated texels, in the sampler's order, each the mean of
+    its neighbours. Undecided texels get the mean of whatever neighbours have values (a
+    provisional estimate used while the sampler is still deciding); texels inside geometry
+    end at 0. A texel's value at step s depends only on rows within order.reach[s] of it, so
+    chunks of rows run as tasks on `spread` (Tracer.over_spans) at once, each but for the
+    bands of rows around its edges, then those bands, at once too; a task takes every step
+    over its rows in a wavefront (`_kernels.interpolate_rows`)."""
+    have = (status == COMPUTED) | (status == INTERPOLATED)
     if order.steps:
         height, reach = order.height, order.reach
         rows = max(-(-height // INTERPOLATION_TASKS), 4 * int(reach[-1]) + 1)  # a chunk is taller than 2 reaches
+        # only an undecided texel reads a texel inside geometry (those decided have decided neighbours): without
+        # any, those inside are left to their 0
+        skipped = -1 if np.any(status == UNDECIDED) else INSIDE
 
         def run(lo, hi):
             lo = np.minimum(lo, height)
-            _kernels.interpolate_rows(G, program.codes, order.targets, order.neighbours, order.starts, order.nb_starts,
-                                      order.widths, order.row_starts, reach, lo, np.clip(hi, lo, height))
+            _kernels.interpolate_rows(G, have, status, order.targets, order.neighbours, order.starts, order.nb_starts,
+                                      order.widths, order.row_starts, reach, lo, np.clip(hi, lo, height), COMPUTED,
+                                      skipped)
 
         spread(lambda first, last: run(np.where(first > 0, first + reach, 0),
                                        np.where(last < height, last - reach, height)), 0, height, rows)
         spread(lambda first, last: run(np.maximum(first - reach, 0), np.minimum(first + reach, height))
                if first > 0 else None, 0, height, rows)
-    zeroed = program.zeroed
-    spread(lambda a, b: _kernels.zero_rows(G, zeroed[a:b]), 0, len(zeroed))
+    spread(lambda a, b: _kernels.zero_where(G[a:b], status[a:b], INSIDE), 0, len(G), -(-len(G) // INTERPOLATION_TASKS))
     return G
 
 

@@ -157,19 +157,18 @@ class Solution:
 
 
 def gathered_light(ff: FormFactors, reflected: np.ndarray | None, status: np.ndarray, order: adaptive.Order,
-                   G: np.ndarray, first: int = 0, program: adaptive.Program | None = None) -> np.ndarray:
+                   G: np.ndarray, first: int = 0) -> np.ndarray:
     """Fill G (N, 3) f32 in place with S + F (B - E) at the computed patches of rows first..
     (in `ids` order; those before keep their G), interpolated elsewhere, and return it: the
     gather's emitted light is in S with the sky (its MIS share beside the direct stage's), F
     carries the reflected light rho I (None: nothing is reflected yet, F (B - E) = 0 is not
     computed). Every patch is computed, a target of the sampler or inside geometry (0), so
-    all of G is written. program: the interpolation of `status` (`adaptive.program`), made
-    here when None."""
+    all of G is written."""
     spread = ff.gatherer.tracer.over_spans
     ids, S = ff.ids[first:], ff.S[first:]
     product = np.zeros(S.shape, np.float32) if reflected is None else ff.product(reflected, first)
     spread(lambda a, b: _kernels.scatter_sum(G, ids[a:b], S[a:b], product[a:b]), 0, len(ids))
-    return adaptive.interpolate(G, program or adaptive.program(status, order, spread), spread)
+    return adaptive.interpolate(G, status, order, spread)
 
 
 def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.ndarray, status: np.ndarray,
@@ -190,11 +189,9 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     else:
         I, previous, G, reflected = start.incident, start.excident, start.gathered, start.reflected
     changes = []
-    program = adaptive.program(status, order, spread)  # the statuses stay while it solves
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
-        lit = reflected if warm or k > 1 else None  # None: B = E, F (B - E) = 0
-        gathered_light(ff, lit, status, order, G, program=program)
+        gathered_light(ff, reflected if warm or k > 1 else None, status, order, G)  # B = E: F (B - E) = 0
         half = np.empty(I.shape, np.float16) if on_pass is not None else np.zeros((0, 3), np.float16)
         bits = half.view(np.uint16)
         spread(lambda a, b: _kernels.pass_light(
