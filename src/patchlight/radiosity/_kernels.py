@@ -280,10 +280,32 @@ def _emitters_picked(count, pick, cdf):
     while step > 0:
         for j in range(count.shape[0]):
             c = count[j] + step
-            count[j] = c if c <= m and cdf[min(c, m) - 1] <= pick[j] else count[j]
+            count[j] += step * ((c <= m) & (cdf[min(c, m) - 1] <= pick[j]))
         step >>= 1
     for j in range(count.shape[0]):
         count[j] = min(count[j], m - 1)
+
+
+# the columns of `_emitter_table`
+E_LO, E_SHARE, E_PDF, E_TWO_SIDED, E_NORMAL, E_CORNERS, E_COLUMNS = 0, 1, 2, 3, 4, 7, 16
+
+
+@nb.njit(cache=True, inline="always")
+def _emitter_table(cdf, pdf_area, em_tri, corners, em_normal, em_two_sided):
+    """(M, E_COLUMNS) f64 what a next-event sample reads of the emitter it picks, in one row:
+    the cdf below it and its share, its pdf_area, 1 if two-sided (else 0), its normal (3) and
+    corners (3 x 3, corner by corner)."""
+    table = np.empty((cdf.shape[0], E_COLUMNS))
+    for e in range(cdf.shape[0]):
+        table[e, E_LO] = cdf[e - 1] if e > 0 else 0.0
+        table[e, E_SHARE] = cdf[e] - table[e, E_LO]
+        table[e, E_PDF] = pdf_area[em_tri[e]]
+        table[e, E_TWO_SIDED] = 1.0 if em_two_sided[e] else 0.0
+        for a in range(3):
+            table[e, E_NORMAL + a] = em_normal[e, a]
+            for q in range(3):
+                table[e, E_CORNERS + 3 * q + a] = corners[e, q, a]
+    return table
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -323,11 +345,11 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     perm_point = np.empty(k_count, np.int64)
     draws = np.empty(k_count, np.int64)
     picked = np.empty(k_count, np.int64)
-    # per sample: its draws, origin, the picked emitter's table entries, the ray and its light
-    pick, s1, s2, lo, share, pdf_e = np.empty((6, k_count))
-    o, c, en = np.empty((3, k_count)), np.empty((9, k_count)), np.empty((3, k_count))
-    d, dist, cos_r, cos_l, f = np.empty((3, k_count)), np.empty(k_count), np.empty(k_count), np.empty(k_count), np.empty(k_count)
-    two = np.empty(k_count, np.bool_)
+    # per sample: its draws, origin, the picked emitter's row of the table, the ray and its light
+    pick, s1, s2, dist, cos_r, cos_l, f = (np.empty(k_count), np.empty(k_count), np.empty(k_count), np.empty(k_count),
+                                           np.empty(k_count), np.empty(k_count), np.empty(k_count))
+    o, d, t = np.empty((3, k_count)), np.empty((3, k_count)), np.empty((E_COLUMNS, k_count))
+    table = _emitter_table(cdf, pdf_area, em_tri, corners, em_normal, em_two_sided)
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
     reach = np.abs(corners).max() if m > 0 else 0.0
@@ -351,21 +373,15 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
             o[0, j], o[1, j], o[2, j] = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
         _emitters_picked(picked, pick, cdf)
         for j in range(k_count):
-            e = picked[j]
-            lo[j] = cdf[e - 1] if e > 0 else 0.0
-            share[j] = cdf[e] - lo[j]
-            pdf_e[j] = pdf_area[em_tri[e]]
-            two[j] = em_two_sided[e]
-            for a in range(3):
-                en[a, j] = em_normal[e, a]
-                for q in range(3):
-                    c[3 * q + a, j] = corners[e, q, a]
+            for q in range(E_COLUMNS):
+                t[q, j] = table[picked[j], q]
         for j in range(k_count):
-            s1[j] = np.sqrt(min(max((pick[j] - lo[j]) / share[j], 0.0), 1.0))
+            s1[j] = np.sqrt(min(max((pick[j] - t[E_LO, j]) / t[E_SHARE, j], 0.0), 1.0))
         for a in range(3):  # from the origin to the point (bw, bu, bv) on the emitter
             for j in range(k_count):
                 bu, bv = s1[j] * (1.0 - s2[j]), s1[j] * s2[j]
-                d[a, j] = (1.0 - bu - bv) * c[a, j] + bu * c[3 + a, j] + bv * c[6 + a, j] - o[a, j]
+                d[a, j] = ((1.0 - bu - bv) * t[E_CORNERS + a, j] + bu * t[E_CORNERS + 3 + a, j]
+                           + bv * t[E_CORNERS + 6 + a, j] - o[a, j])
         for j in range(k_count):
             dist[j] = np.sqrt(d[0, j] * d[0, j] + d[1, j] * d[1, j] + d[2, j] * d[2, j])
         for a in range(3):
@@ -374,14 +390,14 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
         for j in range(k_count):
             cos_r[j] = nx * d[0, j] + ny * d[1, j] + nz * d[2, j]
         for j in range(k_count):
-            cos = -(en[0, j] * d[0, j] + en[1, j] * d[1, j] + en[2, j] * d[2, j])
-            cos_l[j] = abs(cos) if two[j] else cos
+            cos = -(t[E_NORMAL, j] * d[0, j] + t[E_NORMAL + 1, j] * d[1, j] + t[E_NORMAL + 2, j] * d[2, j])
+            cos_l[j] = abs(cos) if t[E_TWO_SIDED, j] != 0.0 else cos
         for j in range(k_count):
-            pdf = pdf_e[j] * dist[j] * dist[j] / cos_l[j]
+            pdf = t[E_PDF, j] * dist[j] * dist[j] / cos_l[j]
             w = power_heuristic(k_count, pdf, gather_rays, cos_r[j] / np.pi)
             f[j] = _divided(cos_r[j] / (np.pi * pdf) * w, k_count, inv_k)
         for j in range(k_count):
-            if share[j] <= 0.0 or dist[j] <= 0.0 or cos_r[j] <= 0.0 or cos_l[j] <= 0.0:
+            if t[E_SHARE, j] <= 0.0 or dist[j] <= 0.0 or cos_r[j] <= 0.0 or cos_l[j] <= 0.0:
                 continue
             e = picked[j]
             s = em_patch[e]
