@@ -174,14 +174,14 @@ def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that
 
 def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
     """_emitters_picked against np.searchsorted (the number of cdf values <= each pick, at
-    most M - 1), for 1 to 9 emitters, emitters of no power (repeated cdf values) among them
-    and picks exactly on cdf values."""
+    most M - 1), for 1 to 20 emitters (counted up to LINEAR_PICK, searched beyond), emitters
+    of no power (repeated cdf values) among them and picks exactly on cdf values."""
     from patchlight.radiosity._kernels import _emitters_picked
     from numba import njit
 
     picked = njit(lambda out, pick, cdf: _emitters_picked(out, pick, cdf))
     rng = np.random.default_rng(3)
-    for m in range(1, 10):
+    for m in range(1, 21):
         power = rng.random(m) * (rng.random(m) > 0.3)
         power[-1] = 1.0
         cdf = np.cumsum(power / power.sum())

@@ -267,16 +267,25 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
     return True
 
 
+LINEAR_PICK = 8  # emitters up to which a pick's emitter is counted, not searched for
+
+
 @nb.njit(cache=True, inline="always")
 def _emitters_picked(count, pick, cdf):
     """count (K,) the emitter each pick (K,) in [0, 1) chooses from cdf (M,) ascending: the
-    number of cdf values <= the pick, at most M - 1; a binary search of all K picks at once,
-    without branches (the same steps for every pick)."""
+    number of cdf values <= the pick, at most M - 1, for all K picks at once without branches:
+    up to LINEAR_PICK emitters counted (cdf values but the last <= each pick), more by a binary
+    search whose every step moves all K picks."""
     m = cdf.shape[0]
+    count[:] = 0
+    if m <= LINEAR_PICK:
+        for i in range(m - 1):
+            for j in range(count.shape[0]):
+                count[j] += cdf[i] <= pick[j]
+        return
     step = 1
     while step * 2 <= m:
         step *= 2
-    count[:] = 0
     while step > 0:
         for j in range(count.shape[0]):
             c = count[j] + step
@@ -286,25 +295,25 @@ def _emitters_picked(count, pick, cdf):
         count[j] = min(count[j], m - 1)
 
 
-# the columns of `_emitter_table`
+# the rows of `_emitter_table`
 E_LO, E_SHARE, E_PDF, E_TWO_SIDED, E_NORMAL, E_CORNERS, E_COLUMNS = 0, 1, 2, 3, 4, 7, 16
 
 
 @nb.njit(cache=True, inline="always")
 def _emitter_table(cdf, pdf_area, em_tri, corners, em_normal, em_two_sided):
-    """(M, E_COLUMNS) f64 what a next-event sample reads of the emitter it picks, in one row:
+    """(E_COLUMNS, M) f64 what a next-event sample reads of the emitter e it picks, column e:
     the cdf below it and its share, its pdf_area, 1 if two-sided (else 0), its normal (3) and
     corners (3 x 3, corner by corner)."""
-    table = np.empty((cdf.shape[0], E_COLUMNS))
+    table = np.empty((E_COLUMNS, cdf.shape[0]))
     for e in range(cdf.shape[0]):
-        table[e, E_LO] = cdf[e - 1] if e > 0 else 0.0
-        table[e, E_SHARE] = cdf[e] - table[e, E_LO]
-        table[e, E_PDF] = pdf_area[em_tri[e]]
-        table[e, E_TWO_SIDED] = 1.0 if em_two_sided[e] else 0.0
+        table[E_LO, e] = cdf[e - 1] if e > 0 else 0.0
+        table[E_SHARE, e] = cdf[e] - table[E_LO, e]
+        table[E_PDF, e] = pdf_area[em_tri[e]]
+        table[E_TWO_SIDED, e] = 1.0 if em_two_sided[e] else 0.0
         for a in range(3):
-            table[e, E_NORMAL + a] = em_normal[e, a]
+            table[E_NORMAL + a, e] = em_normal[e, a]
             for q in range(3):
-                table[e, E_CORNERS + 3 * q + a] = corners[e, q, a]
+                table[E_CORNERS + 3 * q + a, e] = corners[e, q, a]
     return table
 
 
@@ -372,9 +381,9 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
         for j in range(k_count):
             o[0, j], o[1, j], o[2, j] = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
         _emitters_picked(picked, pick, cdf)
-        for j in range(k_count):
-            for q in range(E_COLUMNS):
-                t[q, j] = table[picked[j], q]
+        for q in range(E_COLUMNS):
+            for j in range(k_count):
+                t[q, j] = table[q, picked[j]]
         for j in range(k_count):
             s1[j] = np.sqrt(min(max((pick[j] - t[E_LO, j]) / t[E_SHARE, j], 0.0), 1.0))
         for a in range(3):  # from the origin to the point (bw, bu, bv) on the emitter
