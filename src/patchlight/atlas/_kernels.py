@@ -329,10 +329,22 @@ def affine_barycentrics(px, py, ax, ay, bx, by, cx, cy):
     return 1.0 - l1 - l2, l1, l2
 
 
+@njit(cache=True)
+def sub_texel_cells(n):
+    """(2, n*n) f64 the x and y of the centres of an n x n grid of cells over a texel (texel
+    units, 0..1), point k = i * n + j at ((i + 0.5) / n, (j + 0.5) / n)."""
+    across = (np.arange(n) + 0.5) / n
+    cells = np.empty((2, n * n))
+    for i in range(n):
+        for j in range(n):
+            cells[0, i * n + j], cells[1, i * n + j] = across[i], across[j]
+    return cells
+
+
 @njit(cache=True, inline="always")
-def texel_points(out, p, grid, n, across):
-    """Write into out (n*n, 3) f64 the points of patch p on an n x n grid of sub-texel centres
-    over its texel, on the plane of its triangle; across (n,): (arange(n) + 0.5) / n.
+def texel_points(out, p, grid, cells):
+    """Write into out (K, 3) f64 the points of patch p at the K `sub_texel_cells` (2, K) of its
+    texel, on the plane of its triangle (one loop over the K points, without branches).
 
     grid: (texel_x, texel_y, triangle, position, tex, corners, rim) of `atlas.raster.TexelPoints`:
     the patches' texels and triangles, their own points (N, 3), taken where a point falls past
@@ -347,29 +359,30 @@ def texel_points(out, p, grid, n, across):
     flat = abs(det) <= 1e-12
     safe = 1.0 if flat else det
     rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
-    for i in range(n):
-        dx = texel_x[p] + across[i] - ax
-        for j in range(n):
-            k = i * n + j
-            dy = texel_y[p] + across[j] - ay
-            w1 = (dx * e2y - dy * e2x) / safe
-            w2 = (e1x * dy - e1y * dx) / safe
-            w0 = 1.0 - w1 - w2
-            if flat or (w0 < 0.0 and rim12) or (w1 < 0.0 and rim20) or (w2 < 0.0 and rim01):
-                for a in range(3):
-                    out[k, a] = position[p, a]
-            else:
-                for a in range(3):
-                    out[k, a] = w0 * corners[t, 0, a] + w1 * corners[t, 1, a] + w2 * corners[t, 2, a]
+    x, y = texel_x[p], texel_y[p]
+    p0, p1, p2 = position[p, 0], position[p, 1], position[p, 2]
+    a0, a1, a2 = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
+    b0, b1, b2 = corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2]
+    c0, c1, c2 = corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2]
+    for k in range(out.shape[0]):
+        dx = x + cells[0, k] - ax
+        dy = y + cells[1, k] - ay
+        w1 = (dx * e2y - dy * e2x) / safe
+        w2 = (e1x * dy - e1y * dx) / safe
+        w0 = 1.0 - w1 - w2
+        past = flat | ((w0 < 0.0) & rim12) | ((w1 < 0.0) & rim20) | ((w2 < 0.0) & rim01)
+        out[k, 0] = p0 if past else w0 * a0 + w1 * b0 + w2 * c0
+        out[k, 1] = p1 if past else w0 * a1 + w1 * b1 + w2 * c1
+        out[k, 2] = p2 if past else w0 * a2 + w1 * b2 + w2 * c2
 
 
 @njit(cache=True, nogil=True)
 def sub_texel_points(rows, grid, n):
-    """(R, n*n, 3) f64 the `texel_points` of patches `rows` (R,)."""
+    """(R, n*n, 3) f64 the `texel_points` of patches `rows` (R,) on an n x n grid."""
     out = np.empty((rows.shape[0], n * n, 3))
-    across = (np.arange(n) + 0.5) / n  # the sub-texel centres within a texel, texel units
+    cells = sub_texel_cells(n)
     for r in range(rows.shape[0]):
-        texel_points(out[r], rows[r], grid, n, across)
+        texel_points(out[r], rows[r], grid, cells)
     return out
 
 

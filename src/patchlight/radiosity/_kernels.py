@@ -7,7 +7,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
-from ..atlas._kernels import texel_points
+from ..atlas._kernels import sub_texel_cells, texel_points
 from ..rays.inside import is_back_face
 from ..rays.tracer import faces_ray
 
@@ -167,16 +167,21 @@ def _hash_uniform(key, dim):
 
 
 @nb.njit(cache=True, inline="always")
-def _shuffle(perm, key, dim, draws):
-    """Fill perm (n,) with a pseudo-random permutation of 0..n-1 (Fisher-Yates on _hash_uniform);
-    draws (n,) i64 scratch: every swap's partner is drawn first, a loop of independent hashes."""
-    for i in range(1, perm.shape[0]):
-        draws[i] = int(_hash_uniform(key, dim + i) * (i + 1))
-    for i in range(perm.shape[0]):
-        perm[i] = i
-    for i in range(perm.shape[0] - 1, 0, -1):
-        j = draws[i]
-        perm[i], perm[j] = perm[j], perm[i]
+def _shuffle(perms, key, draws):
+    """Fill each row q of perms (Q, n) with a pseudo-random permutation of 0..n-1 (Fisher-Yates
+    on _hash_uniform at dims q * n + 1 .. q * n + n - 1); draws (Q, n) i64 scratch: every swap's
+    partner is drawn first, a loop of independent hashes, then the rows' swaps interleaved
+    (each row's chain of swaps waits on itself alone)."""
+    q_count, n = perms.shape
+    for q in range(q_count):
+        for i in range(1, n):
+            draws[q, i] = int(_hash_uniform(key, q * n + i) * (i + 1))
+        for i in range(n):
+            perms[q, i] = i
+    for i in range(n - 1, 0, -1):
+        for q in range(q_count):
+            j = draws[q, i]
+            perms[q, i], perms[q, j] = perms[q, j], perms[q, i]
 
 
 @nb.njit(cache=True, inline="always")
@@ -349,10 +354,10 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     tmax = np.empty(n, np.float32)
     value = np.empty((n, 3), np.float32)
     points = np.empty((k_count, 3))
-    across = (np.arange(side) + 0.5) / side
-    perm_pick = np.empty(k_count, np.int64)
-    perm_point = np.empty(k_count, np.int64)
-    draws = np.empty(k_count, np.int64)
+    cells = sub_texel_cells(side)
+    perms = np.empty((2, k_count), np.int64)  # per texel: strata paired with points for the pick, the point
+    perm_pick, perm_point = perms
+    draws = np.empty((2, k_count), np.int64)
     picked = np.empty(k_count, np.int64)
     # per sample: its draws, origin, the picked emitter's row of the table, the ray and its light
     pick, s1, s2, dist, cos_r, cos_l, f = (np.empty(k_count), np.empty(k_count), np.empty(k_count), np.empty(k_count),
@@ -368,12 +373,11 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
         nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
         lift_p = np.float64(lift[p])
         lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
-        texel_points(points, p, grid, side, across)
+        texel_points(points, p, grid, cells)
         if _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
             continue
         key = np.int64(p) * 1000003 + seed
-        _shuffle(perm_pick, key, 0, draws)
-        _shuffle(perm_point, key, k_count, draws)
+        _shuffle(perms, key, draws)
         for j in range(k_count):
             pick[j] = _divided(perm_pick[j] + _hash_uniform(key, 2 * k_count + 2 * j), k_count, inv_k)
         for j in range(k_count):
