@@ -330,63 +330,6 @@ def affine_barycentrics(px, py, ax, ay, bx, by, cx, cy):
 
 
 @njit(cache=True)
-def sub_texel_cells(n):
-    """(2, n*n) f64 the x and y of the centres of an n x n grid of cells over a texel (texel
-    units, 0..1), point k = i * n + j at ((i + 0.5) / n, (j + 0.5) / n)."""
-    across = (np.arange(n) + 0.5) / n
-    cells = np.empty((2, n * n))
-    for i in range(n):
-        for j in range(n):
-            cells[0, i * n + j], cells[1, i * n + j] = across[i], across[j]
-    return cells
-
-
-@njit(cache=True, inline="always")
-def texel_points(out, p, grid, cells):
-    """Write into out (K, 3) f64 the points of patch p at the K `sub_texel_cells` (2, K) of its
-    texel, on the plane of its triangle (one loop over the K points, without branches).
-
-    grid: (texel_x, texel_y, triangle, position, tex, corners, rim) of `atlas.raster.TexelPoints`:
-    the patches' texels and triangles, their own points (N, 3), taken where a point falls past
-    a rim edge or the triangle has no UV area; tex (T, 3, 2) f64 corners in texel units;
-    corners (T, 3, 3) f64 world corners; rim (T, 3) bool edges 01, 12, 20 on a chart's rim."""
-    texel_x, texel_y, triangle, position, tex, corners, rim = grid
-    t = triangle[p]
-    ax, ay = tex[t, 0, 0], tex[t, 0, 1]
-    e1x, e1y = tex[t, 1, 0] - ax, tex[t, 1, 1] - ay
-    e2x, e2y = tex[t, 2, 0] - ax, tex[t, 2, 1] - ay
-    det = e1x * e2y - e1y * e2x
-    flat = abs(det) <= 1e-12
-    safe = 1.0 if flat else det
-    rim01, rim12, rim20 = rim[t, 0], rim[t, 1], rim[t, 2]
-    x, y = texel_x[p], texel_y[p]
-    p0, p1, p2 = position[p, 0], position[p, 1], position[p, 2]
-    a0, a1, a2 = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
-    b0, b1, b2 = corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2]
-    c0, c1, c2 = corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2]
-    for k in range(out.shape[0]):
-        dx = x + cells[0, k] - ax
-        dy = y + cells[1, k] - ay
-        w1 = (dx * e2y - dy * e2x) / safe
-        w2 = (e1x * dy - e1y * dx) / safe
-        w0 = 1.0 - w1 - w2
-        past = flat | ((w0 < 0.0) & rim12) | ((w1 < 0.0) & rim20) | ((w2 < 0.0) & rim01)
-        out[k, 0] = p0 if past else w0 * a0 + w1 * b0 + w2 * c0
-        out[k, 1] = p1 if past else w0 * a1 + w1 * b1 + w2 * c1
-        out[k, 2] = p2 if past else w0 * a2 + w1 * b2 + w2 * c2
-
-
-@njit(cache=True, nogil=True)
-def sub_texel_points(rows, grid, n):
-    """(R, n*n, 3) f64 the `texel_points` of patches `rows` (R,) on an n x n grid."""
-    out = np.empty((rows.shape[0], n * n, 3))
-    cells = sub_texel_cells(n)
-    for r in range(rows.shape[0]):
-        texel_points(out[r], rows[r], grid, cells)
-    return out
-
-
-@njit(cache=True)
 def _wrap(i, n):
     return ((i % n) + n) % n
 

@@ -7,7 +7,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
-from ..atlas._kernels import sub_texel_cells, texel_points
+from ..atlas.raster import sub_texel_cells, texel_points
 from ..rays.inside import is_back_face
 from ..rays.tracer import faces_ray
 
@@ -328,7 +328,7 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     The K = side * side points of each texel of patches `rows` (R,) are made texel by texel
-    (`atlas._kernels.texel_points` of grid, `atlas.raster.TexelPoints.grid`); normal (N, 3)
+    (`atlas.raster.texel_points` of grid, `atlas.raster.TexelPoints.grid`); normal (N, 3)
     and lift (N,): the patches' normals and ray lifts (f32 or f64, read as f64). Emitters (M of them): cdf (M,) their
     cumulative share of emitted power; pdf_area (T,) per scene triangle, that share over its
     area (per m^2); em_tri (M,) scene triangle ids; corners (M, 3, 3); em_normal (M, 3); em_two_sided
