@@ -813,9 +813,9 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     a row's in first-seen order, duplicates summed; entries u64, each an `entry_word`), the
     sky term (R, 3), the share of each patch's rays that hit back faces (R,) and the number
     of LOST rays. Duplicates meet in a hash table of 4 D slots (a quarter full at most: few
-    collisions), each holding a patch id and where its entry is; an entry placed before the
-    row's first is a free slot, so the table is never cleared: scratch space and work per
-    ray stay constant however large the lightmap. The entries, counted per panel as they
+    collisions), each holding a key, row << 32 | patch id, and beside it where its entry is;
+    a key of an earlier row is a free slot, so the table is never cleared: scratch space and
+    work per ray stay constant however large the lightmap. The entries, counted per panel as they
     appear, are then dealt to their panels, one word each.
     """
     d = weights.shape[0]
@@ -823,8 +823,8 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     size = 1
     while size < 4 * d:
         size *= 2
-    table = np.full(size, -1, np.int64)  # patch id << 32 | where its entry is in indices / data
-    place = np.int64(0xFFFFFFFF)
+    table = np.full(size, -1, np.int64)  # keys, row << 32 | patch id; -1 and earlier rows' keys are free
+    where = np.empty(size, np.int64)  # where each key's entry is in indices / data
     indptr = np.zeros(rows + 1, np.int64)
     indices = np.empty(seen.shape[0], np.int32)
     data = np.empty(seen.shape[0], np.float32)
@@ -835,23 +835,24 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     k_sky = 0
     lost = 0
     for r in range(rows):
-        first = indptr[r]
+        row_key = np.int64(r) << 32
         red, green, blue, back_rays = np.float32(0.0), np.float32(0.0), np.float32(0.0), 0
         for j in range(d):
             s = seen[r * d + j]
             if s >= 0:
+                key = row_key | s
                 h = (s * 2654435761) & (size - 1)  # Knuth's multiplicative hash
                 while True:
                     slot = table[h]
-                    if slot < 0 or (slot & place) < first:
-                        table[h] = (np.int64(s) << 32) | nnz
+                    if slot == key:
+                        data[where[h]] += weights[j]
+                        break
+                    if slot < row_key:
+                        table[h], where[h] = key, nnz
                         indices[nnz] = s
                         data[nnz] = weights[j]
                         starts[(s >> PANEL_BITS) + 1] += 1
                         nnz += 1
-                        break
-                    if slot >> 32 == s:
-                        data[slot & place] += weights[j]
                         break
                     h = (h + 1) & (size - 1)
             elif s == SKY:  # summed in registers: in the array, each add waited on the one before
