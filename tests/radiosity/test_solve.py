@@ -166,22 +166,3 @@ def test_the_pass_sweep_writes_numpys_float16_cast():
     np.testing.assert_array_equal(incident, light)  # D + 0: the same values (a NaN made quiet)
     with np.errstate(over="ignore", invalid="ignore"):  # the float16 of 1e30 and more is inf
         np.testing.assert_array_equal(half, incident.astype(np.float16).view(np.uint16))
-
-
-def test_the_change_of_a_pass_is_the_largest_quotient_in_float32():
-    """largest_relative_change divides only where a change may beat the largest so far: the
-    same f32 value as dividing every texel, on changes that round to equal quotients, texels
-    below the floor, zeros and equal values."""
-    import numpy as np
-
-    from patchlight.radiosity import _kernels
-
-    rng = np.random.default_rng(11)
-    current = rng.random((20000, 3), dtype=np.float32) * rng.choice(np.float32([0, 1e-4, 1, 1e3]), (20000, 3))
-    previous = np.where(rng.random((20000, 3)) < 0.3, current, current * rng.uniform(0.5, 1.5, (20000, 3)))
-    previous = previous.astype(np.float32)
-    previous[::97] = np.nextafter(current[::97], np.float32(np.inf))  # one ulp: quotients that tie when rounded
-    for floor in np.float32([1e-30, 1e-3, 0.5, 10.0]):
-        for n in (1, 7, 20000):
-            want = np.max(np.abs(current[:n] - previous[:n]) / np.maximum(current[:n], floor))
-            assert _kernels.largest_relative_change(current[:n], previous[:n], floor) == want

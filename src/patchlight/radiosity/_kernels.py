@@ -651,16 +651,12 @@ def excident(incident, rho, emission, out):
 
 @nb.njit(cache=True, nogil=True)
 def largest_relative_change(current, previous, floor):
-    """max |current - previous| / max(current, floor) over (n, 3) f32 arrays, in f32. Only a
-    change that may beat the largest so far is divided: |d| > largest x m, the product exact
-    in f64, is false exactly when |d| / m <= largest, and then its f32 quotient is too."""
+    """max |current - previous| / max(current, floor) over (n, 3) f32 arrays, in f32."""
     largest = np.float32(0.0)
     for i in range(current.shape[0]):
         for c in range(3):
-            change = abs(current[i, c] - previous[i, c])
-            bound = max(current[i, c], floor)
-            if np.float64(change) > np.float64(largest) * np.float64(bound):
-                largest = max(largest, change / bound)
+            change = abs(current[i, c] - previous[i, c]) / max(current[i, c], floor)
+            largest = max(largest, change)
     return largest
 
 
