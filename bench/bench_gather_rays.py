@@ -2,8 +2,8 @@
 
 Lays out a built-in scene's lightmap as the bake does, picks patches spread evenly over it,
 gathers them chunk by chunk on one thread (`Gatherer.gather_chunk`: ray generation, the
-Embree trace, the item buffer, the CSR rows) and traces the same rays again with one bare
-embreex call per chunk. Prints nanoseconds of thread CPU time per ray for both and the
+Embree trace, the item buffer, the rows of F dealt to their panels) and traces the same rays
+again with one bare embreex call per chunk. Prints nanoseconds of thread CPU time per ray for both and the
 difference, the work around the Embree call. The best of `--repeat` runs counts; thread
 CPU time is what a shared machine's load distorts least, but caches are shared: say the load.
 Run by hand: `.venv/bin/python bench/bench_gather_rays.py [--resolution N ...] [--scenes ...]`.
