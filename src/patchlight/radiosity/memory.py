@@ -9,7 +9,7 @@ at 1024 and 200 at 2048). Peak minus F was 0.57 and 1.53 GiB at 1024 and 2048: 2
 328 a texel (0.55 and 1.55 GiB measured on the current code: the same fit). Direct light
 works chunk by chunk, so its points per texel cost nothing per texel. The time is CPU
 seconds per texel over the cores, 21 microseconds each: a bound that errs long (the room at
-4096 takes 229 CPU seconds for 16.8 M texels, 13.6 each, and 152 s of wall clock where the
+4096 takes 240 CPU seconds for 16.8 M texels, 14.3 each, and 162 s of wall clock where the
 estimate says 176). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
