@@ -169,3 +169,22 @@ def test_zero_area_triangles_are_skipped_and_bad_input_refused():
         rasterize(scene, 4, 4)
     with pytest.raises(PatchlightError, match="material id"):
         rasterize(quad_scene(material_ids=np.array([0, 3], np.int32)), 4, 4)
+
+
+def test_a_texel_has_its_own_position_as_its_one_point_and_its_grid_on_its_triangle():
+    """TexelPoints (and the next-event kernel, which makes the same points texel by texel): one
+    point a texel is the patch's position, exactly (the rule lamps, sun and emitters share);
+    a 3 x 3 grid lies on the plane of the texel's triangle."""
+    from patchlight.atlas.raster import TexelPoints
+    from patchlight.scene import load_scene
+
+    scene, width, height, _ = ensure_lightmap_uvs(load_scene("cornell"), resolution=64)
+    patches, _ = rasterize(scene, width, height)
+    points = TexelPoints(scene, patches)
+    assert np.array_equal(points(1)[:, 0], patches.position.astype(np.float64))
+    grid = points(3)
+    corners = scene.positions[scene.indices[patches.triangle]].astype(np.float64)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    off_plane = np.einsum("rkc,rc->rk", grid - corners[:, None, 0], normal)
+    assert np.abs(off_plane).max() < 1e-4

@@ -410,7 +410,7 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
             w = power_heuristic(k_count, pdf, gather_rays, cos_r[j] / np.pi)
             f[j] = _divided(cos_r[j] / (np.pi * pdf) * w, k_count, inv_k)
         for j in range(k_count):
-            if t[E_SHARE, j] <= 0.0 or dist[j] <= 0.0 or cos_r[j] <= 0.0 or cos_l[j] <= 0.0:
+            if t[E_SHARE, j] <= 0.0 or dist[j] <= 0.0 or cos_r[j] <= 0.0 or cos_l[j] <= 0.0 or f[j] != f[j]:
                 continue
             e = picked[j]
             s = em_patch[e]
@@ -816,6 +816,8 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     """
     d = weights.shape[0]
     rows = seen.shape[0] // d
+    if rows > 1 << 16:
+        raise ValueError("an item buffer holds at most 2^16 rows (u16 row ids in F's words)")
     size = 1
     while size < 4 * d:
         size *= 2
