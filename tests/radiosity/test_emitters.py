@@ -175,7 +175,8 @@ def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that
 def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
     """_emitters_picked against np.searchsorted (the number of cdf values <= each pick, at
     most M - 1), for 1 to 20 emitters (counted up to LINEAR_PICK, searched beyond), emitters
-    of no power (repeated cdf values) among them and picks exactly on cdf values."""
+    of no power (repeated cdf values) among them, picks exactly on cdf values, on the last
+    and just below 1 (the last emitter, whatever the cdf's rounding)."""
     from patchlight.radiosity._kernels import _emitters_picked
     from numba import njit
 
@@ -185,7 +186,7 @@ def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
         power = rng.random(m) * (rng.random(m) > 0.3)
         power[-1] = 1.0
         cdf = np.cumsum(power / power.sum())
-        pick = np.concatenate([rng.random(64), cdf[:-1], [0.0]])
+        pick = np.concatenate([rng.random(64), cdf[:-1], [0.0, cdf[-1], np.nextafter(1.0, 0.0)]])
         out = np.empty(len(pick), np.int64)
         picked(out, pick, cdf)
         np.testing.assert_array_equal(out, np.minimum(np.searchsorted(cdf, pick, side="right"), m - 1))

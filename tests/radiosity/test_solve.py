@@ -98,6 +98,28 @@ def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
         PanelBlock.of([many], run)
 
 
+def test_a_panel_block_of_2_16_rows_reaches_its_last_row_from_a_later_piece():
+    """Row 65,535, the last a u16 holds, comes from the second piece: its row offset is added
+    to the words and must not spill into the column bits."""
+    import numpy as np
+
+    from patchlight.radiosity.solve import PanelBlock
+
+    def word(weight, column, row):
+        return (np.float32(weight).view(np.uint32).astype(np.uint64) << np.uint64(32)) \
+            | (np.uint64(column) << np.uint64(16)) | np.uint64(row)
+
+    first = PanelRows(np.array([0, 1, 1]), np.array([word(2.0, 7, 0)]), 65535)  # row 0: column 7
+    last = PanelRows(np.array([0, 1, 2]), np.array([word(3.0, 65535, 0), word(5.0, 1, 0)]), 1)
+    block = PanelBlock.of([first, last], lambda fn, items: [fn(item) for item in items])
+    B = np.arange(3 * 70000, dtype=np.float32).reshape(70000, 3)
+    out = block.times(B)
+    assert out.shape == (65536, 3)
+    np.testing.assert_array_equal(out[0], 2.0 * B[7])
+    np.testing.assert_array_equal(out[65535], 3.0 * B[65535] + 5.0 * B[65536 + 1])
+    assert not out[1:65535].any()
+
+
 @pytest.fixture(scope="module")
 def room_gatherer():
     import numpy as np
