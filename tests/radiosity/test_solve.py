@@ -103,11 +103,11 @@ def test_a_panel_block_of_2_16_rows_reaches_its_last_row_from_a_later_piece():
     to the words and must not spill into the column bits."""
     import numpy as np
 
+    from patchlight.radiosity._kernels import entry_word
     from patchlight.radiosity.solve import PanelBlock
 
     def word(weight, column, row):
-        return (np.float32(weight).view(np.uint32).astype(np.uint64) << np.uint64(32)) \
-            | (np.uint64(column) << np.uint64(16)) | np.uint64(row)
+        return entry_word(row, column, np.float32(weight).view(np.uint32))
 
     first = PanelRows(np.array([0, 1, 1]), np.array([word(2.0, 7, 0)]), 65535)  # row 0: column 7
     last = PanelRows(np.array([0, 1, 2]), np.array([word(3.0, 65535, 0), word(5.0, 1, 0)]), 1)
