@@ -30,6 +30,7 @@ from ..atlas.patches import Patches
 from ..atlas.raster import TexelPoints
 from ..shading.directional import LUMINANCE, Y00, Y1, DirectionalLightmap
 from . import _kernels
+from .emitters import next_event_rays
 from .gather import Gatherer
 
 MIN_COS = 1e-4  # grazing rays: cosines below this count as this, bounding their solid angle
@@ -127,13 +128,11 @@ def add_emitters(sums: DirectionalSums, emitters, patches: Patches, tri_uv1: np.
     with B - E)."""
     normal = np.asarray(patches.normal, np.float64)
     rows = np.arange(len(patches), dtype=np.int64)
+    k = side * side
     for start in range(0, len(rows), EMITTER_CHUNK):
         part = rows[start:start + EMITTER_CHUNK]
-        k = side * side
-        e = emitters
-        ray, origins, live_dirs, tmax, live_value = _kernels.emitter_rays(
-            points.grid, side, normal, np.asarray(lift, np.float64), part, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals,
-            e.two_sided, e.patch, tri_uv1, patches.width, patches.height, patches.index, patches.emission, 0.0, seed)
+        ray, origins, live_dirs, tmax, live_value = next_event_rays(emitters, patches, tri_uv1, points, side, lift, part,
+                                                                    0.0, seed)
         live_value[tracer.occluded(origins, live_dirs, tmax)] = 0.0
         dirs = np.zeros((len(part) * k, 3))
         value = np.zeros((len(part) * k, 3))

@@ -82,20 +82,29 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
                     pdf_area=pdf_area, tri_normal=normal.astype(np.float64), tri_two_sided=two_sided)
 
 
+def next_event_rays(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
+                    lift: np.ndarray, rows: np.ndarray, gather_rays: float, seed: int):
+    """The live next-event shadow rays of patches `rows` (R,) i64, side x side per texel
+    (`_kernels.emitter_rays`: ray ids, origins, directions, tmax and light), MIS-weighted
+    against gather_rays cosine rays per patch (0: at full weight)."""
+    e = emitters
+    return _kernels.emitter_rays(points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles,
+                                 e.corners, e.normals, e.two_sided, e.patch, tri_uv1, patches.width, patches.height,
+                                 patches.index, patches.emission, float(gather_rays), seed)
+
+
 def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
                   lift: np.ndarray, tracer: Tracer, gather_rays: int, seed: int = 1) -> np.ndarray:
     """(N, 3) f32 incident light from the emitters at every patch, the mean over its texel:
     one shadow ray from each point of a side x side grid over the texel (`points`, made by
     the kernel texel by texel, chunks of texels on the tracer's threads); lift
     (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
-    e = emitters
     out = np.zeros((len(patches), 3), np.float32)
 
     def chunk(first, last):
         rows = np.arange(first, last, dtype=np.int64)
-        ray, origins, dirs, tmax, value = _kernels.emitter_rays(
-            points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles, e.corners, e.normals, e.two_sided, e.patch,
-            tri_uv1, patches.width, patches.height, patches.index, patches.emission, float(gather_rays), seed)
+        ray, origins, dirs, tmax, value = next_event_rays(emitters, patches, tri_uv1, points, side, lift, rows,
+                                                          gather_rays, seed)
         blocked = tracer.occluded_chunk(origins, dirs, tmax)
         _kernels.unblocked_sums(value, ray, blocked, side * side, out[first:last])
 
