@@ -64,21 +64,23 @@ def test_the_emitting_bits_find_the_rays_that_see_emission():
     assert np.array_equal(shares, expected.astype(np.float32))
 
 
-def _rows_one_ray_at_a_time(seen, weights, radiance, panels):
+def _rows_one_ray_at_a_time(seen, weights, radiance, panels, uniform):
     """item_buffer_rows' answer, ray by ray in float32: each row's patches in first-seen order,
-    their weights summed, then dealt to their column panels, rows ascending within a panel."""
+    their weights summed (uniform: one entry per ray, weight bits 0), then dealt to their
+    column panels, rows ascending within a panel."""
     d = len(weights)
     entries, sky, back, lost, k_sky = [], np.zeros((len(seen) // d, 3), np.float32), [], 0, 0
     for r in range(len(seen) // d):
-        row = {}
+        row, per_ray = {}, []
         for j, s in enumerate(seen[r * d:(r + 1) * d]):
             if s >= 0:
                 row[s] = row[s] + weights[j] if s in row else weights[j]
+                per_ray.append((s, np.float32(0.0)))
             elif s == _kernels.SKY:
                 sky[r] += weights[j] * radiance[k_sky]
                 k_sky += 1
             lost += s == _kernels.LOST
-        entries += [(s >> 16, r, s & 0xFFFF, w) for s, w in row.items()]
+        entries += [(s >> 16, r, s & 0xFFFF, w) for s, w in (per_ray if uniform else row.items())]
         back.append(np.count_nonzero(seen[r * d:(r + 1) * d] == _kernels.BACK_FACE) / d)
     entries.sort(key=lambda e: e[0])  # stable: rows ascending, first-seen order within a row
     panel, rows, cols, w = (np.array([e[i] for e in entries]) for i in range(4))
@@ -86,10 +88,13 @@ def _rows_one_ray_at_a_time(seen, weights, radiance, panels):
     return starts, rows, cols, w.astype(np.float32), sky, np.float32(back), lost
 
 
-def test_the_rows_of_an_item_buffer_sum_each_rows_rays_panel_by_panel():
+@pytest.mark.parametrize("uniform", [False, True])
+def test_the_rows_of_an_item_buffer_sum_each_rows_rays_panel_by_panel(uniform):
+    """Weighted, a row's duplicates are summed into one entry; uniform, each ray that sees a
+    patch is an entry of its own (the sky term is summed either way)."""
     rng = np.random.default_rng(5)
     d, n = 40, 3 * 65536 + 9  # four column panels
-    weights = rng.random(d, dtype=np.float32)
+    weights = np.full(d, 1 / d, np.float32) if uniform else rng.random(d, dtype=np.float32)
     seen = rng.integers(_kernels.LOST, n, (300, d)).astype(np.int32)
     seen[:, 1::4] = seen[:, ::4]  # duplicates within rows, some meeting in the hash table's chains
     seen[7] = _kernels.SKY
@@ -97,8 +102,8 @@ def test_the_rows_of_an_item_buffer_sum_each_rows_rays_panel_by_panel():
     seen = seen.ravel()
     radiance = rng.random((np.count_nonzero(seen == _kernels.SKY), 3), dtype=np.float32)
     panels = _kernels.panel_count(n)
-    got = _kernels.item_buffer_rows(seen, weights, radiance, panels)
-    expected = _rows_one_ray_at_a_time(seen, weights, radiance, panels)
+    got = _kernels.item_buffer_rows(seen, weights, radiance, panels, uniform)
+    expected = _rows_one_ray_at_a_time(seen, weights, radiance, panels, uniform)
     starts, entries, sky, back, lost = got
     assert entries.dtype == np.uint64 and lost == expected[-1]
     np.testing.assert_array_equal(starts, expected[0])

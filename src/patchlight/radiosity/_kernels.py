@@ -799,16 +799,19 @@ def entry_word(row, column, weight_bits):
 
 
 @nb.njit(cache=True, nogil=True)
-def item_buffer_rows(seen, weights, sky_radiance, panels):
+def item_buffer_rows(seen, weights, sky_radiance, panels, uniform):
     """Turn the item buffer of R patches x D rays into their form-factor rows.
 
     seen: (R * D,) patch id or SKY / BACK_FACE / LOST per ray, patch by patch; weights: (D,)
     per-direction weights; sky_radiance: (number of SKY rays, 3) radiance seen, in ray order;
-    panels: column panels of F (`panel_count`). Returns the rows column panel by column panel
-    (starts (panels + 1,) int64: panel p's entries are starts[p]..starts[p + 1], in row order,
-    a row's in first-seen order, duplicates summed; entries u64, each an `entry_word`), the
-    sky term (R, 3), the share of each patch's rays that hit back faces (R,) and the number
-    of LOST rays. Duplicates meet in a hash table of 4 D slots (a quarter full at most: few
+    panels: column panels of F (`panel_count`); uniform: every weight is the same (the
+    stratified gather), so each ray that sees a patch is its own entry, of weight bits 0 (its
+    weight is the block's unit, `PanelBlock`), duplicates not summed: no hash table, and half
+    the bytes a kept entry. Returns the rows column panel by column panel (starts (panels + 1,)
+    int64: panel p's entries are starts[p]..starts[p + 1], in row order, a row's in first-seen
+    order; entries u64, each an `entry_word`), the sky term (R, 3), the share of each
+    patch's rays that hit back faces (R,) and the number of LOST rays. Weighted (not uniform),
+    duplicates are summed, meeting in a hash table of 4 D slots (a quarter full at most: few
     collisions), each holding a key, row << 32 | patch id, and beside it where its entry is;
     a key of an earlier row is a free slot, so the table is never cleared: scratch space and
     work per ray stay constant however large the lightmap. The entries, counted per panel as they
@@ -825,7 +828,7 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
     where = np.empty(size, np.int64)  # where each key's entry is in indices / data
     indptr = np.zeros(rows + 1, np.int64)
     indices = np.empty(seen.shape[0], np.int32)
-    data = np.empty(seen.shape[0], np.float32)
+    data = np.zeros(seen.shape[0] if not uniform else 0, np.float32)
     starts = np.zeros(panels + 1, np.int64)
     sky = np.empty((rows, 3), np.float32)
     back = np.empty(rows, np.float32)
@@ -837,7 +840,11 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
         red, green, blue, back_rays = np.float32(0.0), np.float32(0.0), np.float32(0.0), 0
         for j in range(d):
             s = seen[r * d + j]
-            if s >= 0:
+            if s >= 0 and uniform:
+                indices[nnz] = s
+                starts[(s >> PANEL_BITS) + 1] += 1
+                nnz += 1
+            elif s >= 0:
                 key = row_key | s
                 h = (s * 2654435761) & (size - 1)  # Knuth's multiplicative hash
                 while True:
@@ -875,7 +882,7 @@ def item_buffer_rows(seen, weights, sky_radiance, panels):
             c = np.uint32(indices[k])
             i = np.uint64(at[c >> np.uint32(PANEL_BITS)])
             at[c >> np.uint32(PANEL_BITS)] = i + 1
-            entries[i] = entry_word(r, c, weight_bits[k])
+            entries[i] = entry_word(r, c, 0 if uniform else weight_bits[k])
     return starts, entries, sky, back, lost
 
 
@@ -923,14 +930,15 @@ def item_buffer_times(seen, weights, B):
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_in_column_order(p, piece_starts, first_rows, pieces, rows, cols, weights):
+def panel_in_column_order(p, piece_starts, first_rows, pieces, entries, weights):
     """Write column panel p of a block from its pieces (`item_buffer_rows`' rows, one piece
     after the other: piece_starts (K, panels + 1) int64, first_rows (K,) int64 the block's
     row of each piece's first, pieces a typed List of their K entry words) in column order,
-    rows ascending within a column, into rows (u16), cols (u16) and weights (f32), the
-    block's panel p: a stable counting sort by column of the pieces' panel-p words, taken
-    piece by piece in row order, through a histogram the size of the panel. The words are
-    sorted whole (one scattered write each, not three), then split in order."""
+    rows ascending within a column, into entries (u32: column within the panel << 16 | row)
+    and, unless it is empty (a uniform block), weights (f32): the block's panel p. A stable
+    counting sort by column of the pieces' panel-p words, taken piece by piece in row order,
+    through a histogram the size of the panel. The words are sorted whole (one scattered
+    write each, not two), then split in order."""
     at = np.zeros((1 << PANEL_BITS) + 1, np.uint32)  # unsigned indices spare numba's negative-index checks
     for k in range(len(pieces)):
         words = pieces[k]
@@ -938,36 +946,50 @@ def panel_in_column_order(p, piece_starts, first_rows, pieces, rows, cols, weigh
             at[((words[i] >> np.uint64(16)) & np.uint64(0xFFFF)) + np.uint64(1)] += 1
     for c in range(1 << PANEL_BITS):
         at[c + 1] += at[c]
-    sorted_words = np.empty(rows.shape[0], np.uint64)
+    sorted_words = np.empty(entries.shape[0] if weights.shape[0] else 0, np.uint64)
     for k in range(len(pieces)):
         words, first_row = pieces[k], np.uint64(first_rows[k])
         for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
             c = (words[i] >> np.uint64(16)) & np.uint64(0xFFFF)
             j = at[c]
             at[c] = j + np.uint32(1)
-            sorted_words[j] = words[i] + first_row
+            if weights.shape[0]:
+                sorted_words[j] = words[i] + first_row
+            else:  # weight bits 0: the word's low half is the whole entry
+                entries[j] = np.uint32(words[i] + first_row)
     weight_bits = weights.view(np.uint32)
     for j in range(sorted_words.shape[0]):
         word = sorted_words[j]
-        rows[j], cols[j] = word & np.uint64(0xFFFF), (word >> np.uint64(16)) & np.uint64(0xFFFF)
-        weight_bits[j] = word >> np.uint64(32)
+        entries[j], weight_bits[j] = word & np.uint64(0xFFFFFFFF), word >> np.uint64(32)
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_times_rgb(starts, rows, cols, weights, B, n_rows):
+def panel_times_rgb(starts, entries, weights, unit, B, n_rows):
     """(n_rows, 3) f32 product of a panel-major block (each panel in column order,
-    `panel_in_column_order`) with B (N, 3) f32 C-contiguous, on the calling thread. Panel
+    `panel_in_column_order`: entries u32 column << 16 | row, weights f32 or, uniform, none:
+    each entry weighs `unit`) with B (N, 3) f32 C-contiguous, on the calling thread. Panel
     by panel, the block's reads of B stay in one 2^16-row slice and its sums in an n_rows x 4
     array, both cache-resident (row by row over a CSR matrix whose B is larger than the
     caches, every read missed: 3x slower). In column order, consecutive entries add into
     different rows, so the adds do not wait on one another (in row order each waited on the
-    one before: 2x slower), and three in four read the same B as the entry before. Each add
-    is one 4-lane `_add_scaled_rgb` (three scalar ones took 1.4x as long); unsigned indices
-    spare numba's negative-index checks."""
+    one before: 2x slower), and most read the same B as the entry before. Each add is one
+    4-lane `_add_scaled_rgb` (three scalar ones took 1.4x as long); a uniform block adds B
+    alone and scales each row's sum by `unit` at the end. Unsigned indices spare numba's
+    negative-index checks."""
     out = np.zeros((n_rows, 4), np.float32)
     sums, b = out.reshape(-1), B.reshape(-1)
     for p in range(starts.shape[0] - 1):
         base = np.uint64(p << PANEL_BITS)
-        for k in range(np.uint64(starts[p]), np.uint64(starts[p + 1])):
-            _add_scaled_rgb(sums, np.uint64(rows[k]), weights[k], b, base + np.uint64(cols[k]))
+        if weights.shape[0]:
+            for k in range(np.uint64(starts[p]), np.uint64(starts[p + 1])):
+                _add_scaled_rgb(sums, np.uint64(entries[k] & np.uint32(0xFFFF)), weights[k], b,
+                                base + np.uint64(entries[k] >> np.uint32(16)))
+        else:
+            for k in range(np.uint64(starts[p]), np.uint64(starts[p + 1])):
+                _add_scaled_rgb(sums, np.uint64(entries[k] & np.uint32(0xFFFF)), np.float32(1.0), b,
+                                base + np.uint64(entries[k] >> np.uint32(16)))
+    if weights.shape[0] == 0:
+        for r in range(n_rows):
+            for c in range(3):
+                out[r, c] *= np.float32(unit)
     return out[:, :3]

@@ -2,7 +2,8 @@
 cosine rays), and the item buffer turns what each ray hits into a patch id or the sky.
 
 One patch's row of the form-factor matrix F holds the weight of every patch it sees (the
-multiplier-map weights of the pixels that see it, summed), and its constant term S the
+multiplier-map weights of the pixels that see it, summed; the stratified gather, whose rays
+all weigh the same, keeps an entry per ray instead, see `Gatherer.unit`), and its constant term S the
 weighted sky radiance of the rays that escaped plus the emission of the emitters they hit
 (its MIS share, see emitters.py). Geometry does not change between passes, so F is traced
 once and every pass is a sparse product of the reflected light: I = D + S + F (B - E).
@@ -42,7 +43,8 @@ class PanelRows:
     """Consecutive rows of F, one chunk's (`_kernels.item_buffer_rows`), column panel by column
     panel (`_kernels.PANEL_BITS` columns each), each panel in row order: panel p's entries
     are starts[p]..starts[p + 1] (starts: (panels + 1,) int64) of entries, u64 words
-    (`_kernels.entry_word`: weight, column within the panel, row among the n_rows)."""
+    (`_kernels.entry_word`: weight, column within the panel, row among the n_rows; weight
+    bits 0 when the gather is uniform, `Gatherer.unit`)."""
 
     starts: np.ndarray
     entries: np.ndarray
@@ -75,6 +77,9 @@ class Gatherer:
     emitters: the scene's `Emitters` when the direct stage samples them with `nee_samples`
     shadow rays per texel; a ray that hits an emitter then counts its emission with the
     complementary MIS weight into the constant term S. None: the gather alone sees emitters.
+    unit: the weight every ray carries when all are the same (stratified), else None (the
+    hemicube's multiplier map): F then keeps one entry per ray that sees a patch and no
+    weights (`_kernels.item_buffer_rows`, `solve.PanelBlock`).
     """
 
     def __init__(self, scene: Scene, patches: Patches, tracer: Tracer, method: str, size: int, seed: int = 1,
@@ -93,6 +98,7 @@ class Gatherer:
             self.dirs, self.weights = stratified_directions(size, np.random.default_rng(seed))
         else:
             raise ValueError(f"unknown gather method {method!r}")
+        self.unit = float(self.weights[0]) if np.all(self.weights == self.weights[0]) else None
         self.probe_dirs, _ = stratified_directions(PROBE_RAYS, np.random.default_rng(seed))
         self.cluster = None  # a cluster.RayCluster runs the chunks as Ray tasks; None: here
 
@@ -176,7 +182,8 @@ class Gatherer:
         sky_dirs = _kernels.sky_directions(seen, dirs)
         radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
                     else np.zeros((len(sky_dirs), 3), np.float32))
-        starts, entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels)
+        starts, entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels,
+                                                                   self.unit is not None)
         if self.emits:
             S += self._emission_seen(seen, hits, dirs)
         if progress is not None:

@@ -89,10 +89,14 @@ def walled_inside(patches: Patches, inside: np.ndarray, tracer: Tracer, offset: 
     usable = (ids >= 0) & ~inside[np.maximum(ids, 0)]
     first = ids[np.arange(len(ids)), np.argmax(usable, axis=1)]
     row, col = np.nonzero(usable & (ids != first[:, None]))
-    lifted = patches.position + offset[:, None] * patches.normal
-    start, end = lifted[first[row]], lifted[ids[row, col]]
+    start, end = _lifted(patches, offset, first[row]), _lifted(patches, offset, ids[row, col])
     length = np.linalg.norm(end - start, axis=1)
     blocked = tracer.occluded(start, (end - start) / np.maximum(length, 1e-30)[:, None], length)
     walled = np.zeros(len(patches), bool)
     walled[rows[np.unique(row[blocked])]] = True
     return walled
+
+
+def _lifted(patches: Patches, offset: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(K, 3) the positions of patches `ids` (K,) lifted off their surface by offset (N,)."""
+    return patches.position[ids] + offset[ids, None] * patches.normal[ids]

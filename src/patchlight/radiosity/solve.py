@@ -56,7 +56,7 @@ class FormFactors:
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
         if self.kept and self.nbytes + sum(piece.nbytes for piece in g.F) <= self.budget:
-            self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map))
+            self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map, self.gatherer.unit))
         else:
             self.kept, self.blocks = False, []
         return g.back_fraction
@@ -86,7 +86,7 @@ class FormFactors:
 
     @property
     def nnz(self) -> int:
-        return int(sum(len(block.weights) for block in self.blocks))
+        return int(sum(len(block.entries) for block in self.blocks))
 
     @property
     def nbytes(self) -> int:
@@ -97,44 +97,47 @@ class FormFactors:
 class PanelBlock:
     """Rows of F (a gathered block, at most 2^16) column panel by column panel, each panel in
     column order, rows ascending within a column: panel p's entries are starts[p]..starts[p + 1]
-    of rows (u16, the block's row), cols (u16, the column within the panel) and weights (f32).
-    The unit of F B one core multiplies at a time."""
+    of entries (u32: the column within the panel << 16 | the block's row) and weights (f32),
+    or, a uniform block (weights empty), each entry weighs `unit`, once per ray. The unit of
+    F B one core multiplies at a time."""
 
     starts: np.ndarray
-    rows: np.ndarray
-    cols: np.ndarray
+    entries: np.ndarray
     weights: np.ndarray
+    unit: float
     n_rows: int
 
     @classmethod
-    def of(cls, pieces: list[PanelRows], run) -> PanelBlock:
+    def of(cls, pieces: list[PanelRows], run, unit: float | None = None) -> PanelBlock:
         """The rows of `pieces` (the gather's chunks, one after the other, at most 2^16 rows in
         all) put together panel by panel on `run` (Tracer.map): each panel's task sorts the
-        pieces' entries of its panel by column into the block. Empties `pieces`."""
+        pieces' entries of its panel by column into the block. unit: the weight of every
+        entry of a uniform gather's pieces (`Gatherer.unit`); None: each word holds its own.
+        Empties `pieces`."""
         n_rows = sum(piece.n_rows for piece in pieces)
         if n_rows > 1 << 16:
             raise ValueError(f"a panel block holds at most 2^16 rows (u16 row ids), not {n_rows}")
+        unit_f32 = np.float32(0.0 if unit is None else unit)
         if not pieces:
-            return cls(np.zeros(1, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16), np.zeros(0, np.float32), 0)
+            return cls(np.zeros(1, np.int64), np.zeros(0, np.uint32), np.zeros(0, np.float32), unit_f32, 0)
         piece_starts = np.stack([piece.starts for piece in pieces])
         starts = piece_starts.sum(axis=0)  # each panel starts where it starts in the pieces together
         first_rows = np.cumsum([0] + [piece.n_rows for piece in pieces[:-1]])
         words = List([piece.entries for piece in pieces])
         pieces.clear()  # the list keeps the pieces' words until the block is made, no longer
         nnz = int(starts[-1])
-        entries = (np.empty(nnz, np.uint16), np.empty(nnz, np.uint16), np.empty(nnz, np.float32))
-        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, words,
-                                                     *(e[starts[p]:starts[p + 1]] for e in entries)),
-            list(range(len(starts) - 1)))
-        return cls(starts, *entries, n_rows)
+        entries, weights = np.empty(nnz, np.uint32), np.empty(0 if unit is not None else nnz, np.float32)
+        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, words, entries[starts[p]:starts[p + 1]],
+                                                     weights[starts[p]:starts[p + 1]]), list(range(len(starts) - 1)))
+        return cls(starts, entries, weights, unit_f32, n_rows)
 
     def times(self, B: np.ndarray) -> np.ndarray:
         """(n_rows, 3) f32: these rows of F times B (N, 3) f32."""
-        return _kernels.panel_times_rgb(self.starts, self.rows, self.cols, self.weights, B, self.n_rows)
+        return _kernels.panel_times_rgb(self.starts, self.entries, self.weights, self.unit, B, self.n_rows)
 
     @property
     def nbytes(self) -> int:
-        return self.starts.nbytes + self.rows.nbytes + self.cols.nbytes + self.weights.nbytes
+        return self.starts.nbytes + self.entries.nbytes + self.weights.nbytes
 
 
 def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
