@@ -964,32 +964,40 @@ def panel_in_column_order(p, piece_starts, first_rows, pieces, entries, weights)
 
 
 @nb.njit(cache=True, nogil=True)
-def panel_times_rgb(starts, entries, weights, unit, B, n_rows):
-    """(n_rows, 3) f32 product of a panel-major block (each panel in column order,
-    `panel_in_column_order`: entries u32 column << 16 | row, weights f32 or, uniform, none:
-    each entry weighs `unit`) with B (N, 3) f32 C-contiguous, on the calling thread. Panel
-    by panel, the block's reads of B stay in one 2^16-row slice and its sums in an n_rows x 4
-    array, both cache-resident (row by row over a CSR matrix whose B is larger than the
-    caches, every read missed: 3x slower). In column order, consecutive entries add into
-    different rows, so the adds do not wait on one another (in row order each waited on the
-    one before: 2x slower), and most read the same B as the entry before. Each add is one
-    4-lane `_add_scaled_rgb` (three scalar ones took 1.4x as long); a uniform block adds B
-    alone and scales each row's sum by `unit` at the end. Unsigned indices spare numba's
-    negative-index checks."""
-    out = np.zeros((n_rows, 4), np.float32)
+def blocks_times_rgb(starts, entries, weights, units, row_counts, B):
+    """(sum of row_counts, 3) f32: consecutive panel-major blocks of F (typed Lists, an item
+    a block: starts, entries u32 column << 16 | row, weights f32 or, uniform, none: each
+    entry weighs units[g]; row_counts (G,) int64) times B (N, 3) f32 C-contiguous, their rows
+    one after the other, on the calling thread. Panel by panel across the blocks, so each
+    panel's 2^16-row slice of B comes from memory once for all of them and from the caches for
+    the rest (block by block, each block read all of B: a fifth more CPU time); a block's sums
+    (n_rows x 4) stay cache-resident while its entries of the panel stream by (row by row over
+    a CSR matrix whose B is larger than the caches, every read missed: 3x slower). In column
+    order, consecutive entries add into different rows, so the adds do not wait on one another
+    (in row order each waited on the one before: 2x slower), and most read the same B as the
+    entry before. Each add is one 4-lane `_add_scaled_rgb` (three scalar ones took 1.4x as
+    long); a uniform block adds B alone and scales each row's sum by its unit at the end.
+    Unsigned indices spare numba's negative-index checks."""
+    first_rows = np.zeros(row_counts.shape[0] + 1, np.int64)
+    for g in range(row_counts.shape[0]):
+        first_rows[g + 1] = first_rows[g] + row_counts[g]
+    out = np.zeros((first_rows[-1], 4), np.float32)
     sums, b = out.reshape(-1), B.reshape(-1)
-    for p in range(starts.shape[0] - 1):
+    for p in range(starts[0].shape[0] - 1):
         base = np.uint64(p << PANEL_BITS)
-        if weights.shape[0]:
-            for k in range(np.uint64(starts[p]), np.uint64(starts[p + 1])):
-                _add_scaled_rgb(sums, np.uint64(entries[k] & np.uint32(0xFFFF)), weights[k], b,
-                                base + np.uint64(entries[k] >> np.uint32(16)))
-        else:
-            for k in range(np.uint64(starts[p]), np.uint64(starts[p + 1])):
-                _add_scaled_rgb(sums, np.uint64(entries[k] & np.uint32(0xFFFF)), np.float32(1.0), b,
-                                base + np.uint64(entries[k] >> np.uint32(16)))
-    if weights.shape[0] == 0:
-        for r in range(n_rows):
-            for c in range(3):
-                out[r, c] *= np.float32(unit)
+        for g in range(len(starts)):
+            at, block, w, row0 = starts[g], entries[g], weights[g], np.uint64(first_rows[g])
+            if w.shape[0]:
+                for k in range(np.uint64(at[p]), np.uint64(at[p + 1])):
+                    _add_scaled_rgb(sums, row0 + np.uint64(block[k] & np.uint32(0xFFFF)), w[k], b,
+                                    base + np.uint64(block[k] >> np.uint32(16)))
+            else:
+                for k in range(np.uint64(at[p]), np.uint64(at[p + 1])):
+                    _add_scaled_rgb(sums, row0 + np.uint64(block[k] & np.uint32(0xFFFF)), np.float32(1.0), b,
+                                    base + np.uint64(block[k] >> np.uint32(16)))
+    for g in range(len(starts)):
+        if weights[g].shape[0] == 0:
+            for r in range(first_rows[g], first_rows[g + 1]):
+                for c in range(3):
+                    out[r, c] *= units[g]
     return out[:, :3]

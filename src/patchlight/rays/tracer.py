@@ -105,6 +105,11 @@ class Tracer:
             self._pool = ThreadPoolExecutor(_threads())
         return self._scene
 
+    @property
+    def threads(self) -> int:
+        """How many items `map` runs at once: one per core, or PATCHLIGHT_THREADS."""
+        return _threads()
+
     def map(self, fn, items: list) -> list:
         """fn over items on the tracer's thread pool (one thread per core), results in order.
         For pipelines whose every stage releases the GIL: numba nogil kernels, Embree calls."""
