@@ -110,3 +110,28 @@ def test_no_light_crosses_a_wall_thinner_than_a_texel_into_a_sealed_room(tmp_pat
     assert not np.any(alpha[p.texel_y[inside], p.texel_x[inside]]) and inside.any()
     assert not np.any(alpha[p.index < 0])
     np.testing.assert_array_equal(read_lightmap(tmp_path), result.lightmap)
+
+
+def test_a_texel_inside_pairs_its_first_usable_neighbour_with_each_other_one():
+    """wall_pairs against the neighbours read one by one: covered (index >= 0), on the map and
+    not inside; the first such, in NEIGHBOURS order, paired with every later one."""
+    from patchlight.radiosity import _kernels
+
+    rng = np.random.default_rng(2)
+    height, width = 9, 11
+    covered = rng.random((height, width)) < 0.8
+    index = np.full((height, width), -1, np.int64)
+    index[covered] = np.arange(covered.sum())
+    texel_y, texel_x = np.nonzero(covered)
+    inside = rng.random(len(texel_y)) < 0.4
+    expected = []
+    for p in np.flatnonzero(inside):
+        usable = []
+        for dy, dx in _kernels.NEIGHBOURS:
+            y, x = texel_y[p] + dy, texel_x[p] + dx
+            if 0 <= y < height and 0 <= x < width and index[y, x] >= 0 and not inside[index[y, x]]:
+                usable.append(index[y, x])
+        expected += [(p, usable[0], other) for other in usable[1:]]
+    got = _kernels.wall_pairs(index, inside, texel_y.astype(np.int32), texel_x.astype(np.int32))
+    assert len(expected) > 20
+    np.testing.assert_array_equal(np.stack(got, 1), np.array(expected))

@@ -17,6 +17,39 @@ LOST = -3       # the hit's lightmap texel is covered by no patch
 NEIGHBOURS = np.array([[0, -1], [0, 1], [-1, 0], [1, 0], [-1, -1], [-1, 1], [1, -1], [1, 1]], np.int64)
 
 
+
+@nb.njit(cache=True, nogil=True)
+def wall_pairs(index, inside, texel_y, texel_x):
+    """The neighbours between which each patch inside geometry (inside (N,) bool) is looked
+    through: its 8-neighbours (NEIGHBOURS order) that are covered (index (H, W), -1 where not)
+    and not inside, the first of them paired with each other one. Returns (P,) i64 each
+    pair's patch inside, its first neighbour and the other, patch by patch in id order:
+    counted, then written, with no per-neighbour arrays."""
+    height, width = index.shape
+    pairs = np.empty((3, 0), np.int64)
+    for writing in (False, True):
+        count = 0
+        for p in range(inside.shape[0]):
+            if not inside[p]:
+                continue
+            first = -1
+            for k in range(NEIGHBOURS.shape[0]):
+                y, x = texel_y[p] + NEIGHBOURS[k, 0], texel_x[p] + NEIGHBOURS[k, 1]
+                if y < 0 or y >= height or x < 0 or x >= width:
+                    continue
+                s = index[y, x]
+                if s < 0 or inside[s]:
+                    continue
+                if first < 0:
+                    first = s
+                elif s != first:
+                    if writing:
+                        pairs[0, count], pairs[1, count], pairs[2, count] = p, first, s
+                    count += 1
+        if not writing:
+            pairs = np.empty((3, count), np.int64)
+    return pairs[0], pairs[1], pairs[2]
+
 PREFETCH_AHEAD = 32  # rays: how far ahead a sweep asks for the table entry a later ray reads
 
 

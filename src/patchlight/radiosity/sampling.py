@@ -82,18 +82,12 @@ def walled_inside(patches: Patches, inside: np.ndarray, tracer: Tracer, offset: 
     both sides of it (the foot of a wall thinner than a texel): the straight line between two
     of them, lifted off the surface by offset (N,), is blocked. Filled from either side, such
     a texel would carry that side's light through the wall; it stays dark instead."""
-    rows = np.flatnonzero(inside)
-    y, x = patches.texel_y[rows, None] + _kernels.NEIGHBOURS[:, 0], patches.texel_x[rows, None] + _kernels.NEIGHBOURS[:, 1]
-    on_map = (y >= 0) & (y < patches.height) & (x >= 0) & (x < patches.width)
-    ids = np.where(on_map, patches.index[np.clip(y, 0, patches.height - 1), np.clip(x, 0, patches.width - 1)], -1)
-    usable = (ids >= 0) & ~inside[np.maximum(ids, 0)]
-    first = ids[np.arange(len(ids)), np.argmax(usable, axis=1)]
-    row, col = np.nonzero(usable & (ids != first[:, None]))
-    start, end = _lifted(patches, offset, first[row]), _lifted(patches, offset, ids[row, col])
+    texel, first, other = _kernels.wall_pairs(patches.index, inside, patches.texel_y, patches.texel_x)
+    start, end = _lifted(patches, offset, first), _lifted(patches, offset, other)
     length = np.linalg.norm(end - start, axis=1)
     blocked = tracer.occluded(start, (end - start) / np.maximum(length, 1e-30)[:, None], length)
     walled = np.zeros(len(patches), bool)
-    walled[rows[np.unique(row[blocked])]] = True
+    walled[texel[blocked]] = True
     return walled
 
 
