@@ -49,6 +49,8 @@ def test_texels_file_holds_every_pass_and_the_bake_arrays(baked):
                                rtol=2e-3, atol=1e-4)  # float16
     np.testing.assert_array_equal(read_exr(out / "lightmap.exr"), result.lightmap)
     assert texels.passes[0].sum() < texels.passes[-1].sum()  # the bounces add light
+    for k, image in enumerate(result.pass_images()):  # written one at a time, each in its place
+        np.testing.assert_array_equal(texels.passes[k], image.astype(np.float16))
     np.testing.assert_array_equal(texels.status[p.texel_y, p.texel_x], result.status)
     assert (texels.status[p.index < 0] == 0).all() and STATUS_NAMES[adaptive.INSIDE] == "inside geometry"
     np.testing.assert_array_equal(texels.chart[p.texel_y, p.texel_x], p.chart)
@@ -148,7 +150,7 @@ def test_a_damaged_texels_file_or_bake_json_is_one_line(baked, tmp_path):
     shutil.copytree(out, broken)
     texels = read_texels(out)
     texels.excident[0, 0, 0] = np.nan
-    (broken / "texels.npz").write_bytes(texels.to_bytes())
+    texels.write(broken / "texels.npz")
     with pytest.raises(PatchlightError, match="texels.npz: values that are not finite"):
         read_texels(broken)
     (broken / "texels.npz").write_bytes(b"not a zip")

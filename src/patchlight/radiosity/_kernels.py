@@ -50,6 +50,7 @@ def wall_pairs(index, inside, texel_y, texel_x):
             pairs = np.empty((3, count), np.int64)
     return pairs[0], pairs[1], pairs[2]
 
+
 PREFETCH_AHEAD = 32  # rays: how far ahead a sweep asks for the table entry a later ray reads
 
 
