@@ -11,7 +11,7 @@ import time
 from dataclasses import dataclass, field
 import numpy as np
 
-from .atlas.lightmap import denoised_incident, fill_lightmap, stitch_seams, valid_texels
+from .atlas.lightmap import LightmapFill, denoised_incident, fill_lightmap, stitch_seams, valid_texels
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
@@ -51,8 +51,8 @@ class BakeResult:
     def pass_images(self):
         """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is, one at a
         time (a generator: a large lightmap's passes never sit in memory at full precision)."""
-        inside = self.status == adaptive.INSIDE
-        return (fill_lightmap(self.patches, I, inside, self.walled) for I in self.pass_incident)
+        fill = LightmapFill.of(self.patches, self.status == adaptive.INSIDE, self.walled)
+        return (fill.image(I) for I in self.pass_incident)
 
     @property
     def valid(self) -> np.ndarray:

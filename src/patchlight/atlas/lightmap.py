@@ -3,9 +3,11 @@ neighbours, charts grown past their borders, seams between charts stitched, and 
 light denoised chart by chart."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..imaging.dilate import dilate
+from ..imaging.dilate import Dilation
 from . import _kernels
 from .patches import Patches
 
@@ -25,15 +27,40 @@ def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray,
     filtering at a joint reads no darkness; deeper ones stay black), but never the walled
     ones (walled (N,) bool, radiosity.sampling.walled_inside: the foot of a wall thinner than
     a texel, which would carry one side's light to the other), then grown past chart borders
-    by DILATE_TEXELS rings."""
-    walled = np.zeros(len(patches), bool) if walled is None else walled
-    image, valid, fillable = _kernels.lightmap_texels(patches.index, incident.astype(np.float32, copy=False), inside,
-                                                      walled)
-    covered = patches.index >= 0
-    valid = dilate(image, valid, texels=DILATE_TEXELS, allowed=fillable)
-    image[covered & ~valid] = 0.0
-    dilate(image, covered, texels=DILATE_TEXELS)
-    return image
+    by DILATE_TEXELS rings. Many lightmaps of the same texels: `LightmapFill`."""
+    return LightmapFill.of(patches, inside, walled).image(incident)
+
+
+@dataclass
+class LightmapFill:
+    """`fill_lightmap` worked out once for a bake's texels, which depends on where patches lie,
+    not on their light: the fill of texels inside geometry (`Dilation`), the texels left black,
+    the growth past chart borders; `image` then makes each lightmap (a bake's passes: the
+    room's 19 at 2048 in 1.4 s, not 3.3 s, the same bits)."""
+
+    patches: Patches
+    inside: np.ndarray
+    walled: np.ndarray
+    fill: Dilation
+    black: np.ndarray
+    grow: Dilation
+
+    @classmethod
+    def of(cls, patches: Patches, inside: np.ndarray, walled: np.ndarray | None = None) -> LightmapFill:
+        walled = np.zeros(len(patches), bool) if walled is None else walled
+        fill = Dilation.of(valid_texels(patches, inside), DILATE_TEXELS,
+                           allowed=_kernels.texels_covered_and_not(patches.index, walled))
+        covered = patches.index >= 0
+        return cls(patches, inside, walled, fill, np.flatnonzero(covered & ~fill.known), Dilation.of(covered, DILATE_TEXELS))
+
+    def image(self, incident: np.ndarray) -> np.ndarray:
+        """(H, W, C) f32 the lightmap of incident (N, C)."""
+        image, _, _ = _kernels.lightmap_texels(self.patches.index, incident.astype(np.float32, copy=False), self.inside,
+                                               self.walled)
+        self.fill.apply(image)
+        image.reshape(-1, image.shape[2])[self.black] = 0.0
+        self.grow.apply(image)
+        return image
 
 
 def stitch_seams(scene, patches: Patches, inside: np.ndarray, images: list[np.ndarray]) -> tuple[list, dict]:

@@ -135,15 +135,21 @@ def encode_scanlines(rgbe):
     return out[:pos]
 
 
-@numba.njit(cache=True)
-def dilate_rings(image, known, allowed, rings):
-    """Grow image (H, W, C) in place from its `known` (H, W) texels by up to `rings` rings:
-    each unknown texel in `allowed` takes the mean of its known side neighbours, or, with
-    none, of its known corner neighbours: the nearest texels (so padding beside a dark texel
-    at a wall's foot copies it, not the lit texel diagonally across the wall). All texels of
-    a ring are filled from the rings before it. Returns the grown `known` mask."""
-    h, w, c = image.shape
+@numba.njit(cache=True, nogil=True)
+def dilation_plan(known, allowed, rings):
+    """How `rings` rings grow an image (H, W) from its `known` texels: each unknown texel in
+    `allowed` next to known ones takes the mean of its known side neighbours, or, with none,
+    of its known corner neighbours: the nearest texels (so padding beside a dark texel at a
+    wall's foot copies it, not the lit texel diagonally across the wall). All texels of a ring
+    are filled from the rings before it. Returns the filled texels in order, targets (K,) i64
+    flat indices, their sources (K, 4) i64 flat indices (-1 past the last), and the grown
+    `known` mask; the values are worked out by `apply_dilation`, for as many images as need
+    the same growth."""
+    h, w = known.shape
     known = known.copy()
+    targets = np.empty(16, np.int64)
+    sources = np.empty((16, 4), np.int64)
+    count = 0
     for _ in range(rings):
         grown = known.copy()
         any_grown = False
@@ -152,25 +158,47 @@ def dilate_rings(image, known, allowed, rings):
                 if known[y, x] or not allowed[y, x]:
                     continue
                 for first, last in ((0, 4), (4, 8)):  # sides, then corners
-                    count = 0
+                    n = 0
                     for k in range(first, last):
                         yy, xx = y + RING[k, 0], x + RING[k, 1]
                         if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                            count += 1
-                    if count > 0:
+                            n += 1
+                    if n > 0:
                         break
-                if count == 0:
+                if n == 0:
                     continue
-                for ch in range(c):
-                    total = 0.0
-                    for k in range(first, last):
-                        yy, xx = y + RING[k, 0], x + RING[k, 1]
-                        if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                            total += image[yy, xx, ch]
-                    image[y, x, ch] = total / count
+                if count == targets.shape[0]:
+                    targets = np.concatenate((targets, np.empty_like(targets)))
+                    sources = np.concatenate((sources, np.empty_like(sources)))
+                targets[count] = y * w + x
+                sources[count, :] = -1
+                n = 0
+                for k in range(first, last):
+                    yy, xx = y + RING[k, 0], x + RING[k, 1]
+                    if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                        sources[count, n] = yy * w + xx
+                        n += 1
+                count += 1
                 grown[y, x] = True
                 any_grown = True
         known = grown
         if not any_grown:
             break
-    return known
+    return targets[:count], sources[:count], known
+
+
+@numba.njit(cache=True, nogil=True)
+def apply_dilation(image, targets, sources):
+    """Fill image (H, W, C) f32 in place as a `dilation_plan` says: each target, in order, the
+    mean of its sources, summed in float64 in their order."""
+    w = image.shape[1]
+    for i in range(targets.shape[0]):
+        n = 0
+        while n < 4 and sources[i, n] >= 0:
+            n += 1
+        y, x = targets[i] // w, targets[i] % w
+        for ch in range(image.shape[2]):
+            total = 0.0
+            for k in range(n):
+                total += image[sources[i, k] // w, sources[i, k] % w, ch]
+            image[y, x, ch] = total / n

@@ -5,12 +5,12 @@ whole process, writing included): BASE_BYTES (the interpreter, NumPy, numba's ke
 Embree) plus BYTES_PER_TEXEL per texel of the W x H image (patch arrays, light vectors, the
 sampler's plan and state, the passes kept as float16, images and the files' buffers),
 covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the room's 123,
-108 and 99 at 1024, 2048 and 4096, four bytes an entry). The peak comes while the files are
-written, F freed: peak minus F was 0.66, 1.74 and 6.39 GiB at 1024, 2048 and 4096, 256 MiB
-plus 420, 382 and 393 bytes a texel. Direct light works chunk by chunk, so its points per
-texel cost nothing per texel. The time is CPU seconds per texel over the cores, 21
-microseconds each: a bound that errs long (the room at 4096 takes 198 CPU seconds for
-16.8 M texels, 11.8 each, and 136 s of wall clock where the estimate says 176). F gets what is left, up to max_memory, and is
+108 and 99 at 1024, 2048 and 4096, four bytes an entry). Peak minus F was 0.52, 1.42 and
+4.91 GiB at 1024, 2048 and 4096: 256 MiB plus 276, 300 and 298 bytes a texel. Direct light
+works chunk by chunk, so its points per texel cost nothing per texel, and texels.npz is
+written pass by pass. The time is CPU seconds per texel over the cores, 21 microseconds
+each: a bound that errs long (the room at 4096 takes 183-198 CPU seconds for 16.8 M
+texels, 10.9-11.8 each, and 136-139 s of wall clock where the estimate says 176). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
@@ -25,7 +25,7 @@ from ..errors import PatchlightError
 from ..limits import available_memory
 
 BASE_BYTES = 256 << 20         # the interpreter and its libraries
-BYTES_PER_TEXEL = 390          # F aside (module docstring)
+BYTES_PER_TEXEL = 300          # F aside (module docstring)
 FORM_FACTOR_BYTES_PER_TEXEL = 110  # F of the room per lightmap texel (module docstring)
 CORE_SECONDS_PER_TEXEL = 21e-6  # the room's whole bake per texel on one core of this machine (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
