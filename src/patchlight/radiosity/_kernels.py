@@ -862,7 +862,7 @@ def item_buffer_rows(seen, weights, sky_radiance, panels, uniform):
     where = np.empty(size, np.int64)  # where each key's entry is in indices / data
     indptr = np.zeros(rows + 1, np.int64)
     indices = np.empty(seen.shape[0], np.int32)
-    data = np.zeros(seen.shape[0] if not uniform else 0, np.float32)
+    data = np.empty(0 if uniform else seen.shape[0], np.float32)
     starts = np.zeros(panels + 1, np.int64)
     sky = np.empty((rows, 3), np.float32)
     back = np.empty(rows, np.float32)

@@ -73,8 +73,8 @@ class FormFactors:
         if k >= len(self.blocks):
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        groups = _runs(self.blocks[k:], self.gatherer.tracer.threads)
-        return np.concatenate(self.gatherer.tracer.map(lambda group: blocks_times(group, B), groups))[first - ends[k]:]
+        runs = _runs(self.blocks[k:], self.gatherer.tracer.threads)
+        return np.concatenate(self.gatherer.tracer.map(lambda run: blocks_times(run, B), runs))[first - ends[k]:]
 
     @property
     def ids(self) -> np.ndarray:
