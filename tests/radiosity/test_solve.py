@@ -164,3 +164,15 @@ def test_product_runs_cover_the_blocks_in_order_with_a_multiple_of_the_threads(s
     if sizes == [5] * 20:  # equal blocks: runs as long as one another within a block, at most RUN_BLOCKS
         lengths = [len(run) for run in runs]
         assert len(runs) == 6 and max(lengths) - min(lengths) <= 1 and max(lengths) <= RUN_BLOCKS
+
+
+@pytest.mark.parametrize("uniform", [False, True])
+def test_a_block_takes_the_bytes_its_size_says(uniform):
+    """The keep-or-drop test of F counts what the block will hold, not the pieces' words."""
+    from patchlight.radiosity.solve import PanelBlock
+
+    pieces, weights, *_ = _pieces(3 * 65536 + 17, [0, 300, 700], uniform)
+    unit = weights[0] if uniform else None
+    size = PanelBlock.size_of(pieces, unit)
+    block = PanelBlock.of(pieces, lambda fn, items: [fn(item) for item in items], unit)
+    assert size == block.nbytes and PanelBlock.size_of([], unit) == PanelBlock.of([], None).nbytes

@@ -56,7 +56,7 @@ class FormFactors:
         self.id_parts.append(rows)
         self.S_parts.append(g.S)
         self.lost_rays += g.lost
-        if self.kept and self.nbytes + sum(piece.nbytes for piece in g.F) <= self.budget:
+        if self.kept and self.nbytes + PanelBlock.size_of(g.F, self.gatherer.unit) <= self.budget:
             self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map, self.gatherer.unit))
         else:
             self.kept, self.blocks = False, []
@@ -136,6 +136,13 @@ class PanelBlock:
     @property
     def nbytes(self) -> int:
         return self.starts.nbytes + self.entries.nbytes + self.weights.nbytes
+
+    @staticmethod
+    def size_of(pieces: list[PanelRows], unit: float | None = None) -> int:
+        """The bytes `of` makes of these pieces: four an entry, four more for its weight unless
+        uniform (their words take eight), and the panels' starts."""
+        entries = sum(len(piece.entries) for piece in pieces)
+        return entries * (4 if unit is not None else 8) + 8 * len(pieces[0].starts if pieces else [0])
 
 
 def blocks_times(blocks: list[PanelBlock], B: np.ndarray) -> np.ndarray:
