@@ -117,7 +117,7 @@ def run(name: str, settings: BakeSettings, sample: int) -> None:
     print(f"patches {s['patches']}: computed {s['computed_patches']}, interpolated {s['interpolated_patches']}, "
           f"inside geometry {s['inside_geometry_patches']}")
     print(f"rays traced {s['rays_traced'] / 1e6:.2f} M, gather {s['rays_per_second'] / 1e6:.2f} Mrays/s, "
-          f"F {s['form_factor_matrix']['nonzeros'] / 1e6:.1f} M nonzeros "
+          f"F {s['form_factor_matrix']['entries'] / 1e6:.1f} M entries "
           f"({s['form_factor_matrix']['bytes'] / 2**20:.0f} MiB), {s['passes']} passes")
     for stage, seconds in s["seconds_per_stage"].items():
         print(f"  {stage:<14} {seconds:7.3f} s   CPU {100 * s['cpu_utilisation_per_stage'][stage]:3.0f} % of the cores")

@@ -210,7 +210,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "rays_regather": ff.rays_regathered,
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
-        "form_factor_matrix": {"kept": ff.kept, "nonzeros": ff.nnz, "bytes": ff.nbytes, "budget": int(budget)},
+        "form_factor_matrix": {"kept": ff.kept, "entries": ff.entries, "bytes": ff.nbytes, "budget": int(budget)},
         "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget),
                    "peak_resident_bytes": peak_resident_bytes()},
         "estimated_seconds": estimate_seconds(width, height),

@@ -87,7 +87,8 @@ class FormFactors:
         return _joined(self.S_parts, np.zeros((0, 3), np.float32))
 
     @property
-    def nnz(self) -> int:
+    def entries(self) -> int:
+        """F's entries kept: one per (row, patch seen), or, uniform, per ray that sees a patch."""
         return int(sum(len(block.entries) for block in self.blocks))
 
     @property
