@@ -149,6 +149,7 @@ def dilation_plan(known, allowed, rings):
     known = known.copy()
     targets = np.empty(16, np.int64)
     sources = np.empty((16, 4), np.int64)
+    found = np.empty(4, np.int64)  # the neighbours a texel fills from, -1 past the last
     count = 0
     for _ in range(rings):
         grown = known.copy()
@@ -157,11 +158,13 @@ def dilation_plan(known, allowed, rings):
             for x in range(w):
                 if known[y, x] or not allowed[y, x]:
                     continue
+                found[:] = -1
                 for first, last in ((0, 4), (4, 8)):  # sides, then corners
                     n = 0
                     for k in range(first, last):
                         yy, xx = y + RING[k, 0], x + RING[k, 1]
                         if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
+                            found[n] = yy * w + xx
                             n += 1
                     if n > 0:
                         break
@@ -171,13 +174,7 @@ def dilation_plan(known, allowed, rings):
                     targets = np.concatenate((targets, np.empty_like(targets)))
                     sources = np.concatenate((sources, np.empty_like(sources)))
                 targets[count] = y * w + x
-                sources[count, :] = -1
-                n = 0
-                for k in range(first, last):
-                    yy, xx = y + RING[k, 0], x + RING[k, 1]
-                    if 0 <= yy < h and 0 <= xx < w and known[yy, xx]:
-                        sources[count, n] = yy * w + xx
-                        n += 1
+                sources[count, :] = found
                 count += 1
                 grown[y, x] = True
                 any_grown = True
