@@ -126,7 +126,8 @@ def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
             points -= np.outer(points @ em_normal[0] - corners[0, 0] @ em_normal[0], em_normal[0])
         two_sided = np.array([case % 8 == 3, False])
         lift = 1e-3 * (case % 3)
-        if not _faces_no_emitter(points, *(lift * n), *n, corners, em_normal, two_sided, np.abs(corners).max()):
+        if not _faces_no_emitter(np.ascontiguousarray(points.T), *(lift * n), *n, corners, em_normal, two_sided,
+                                 np.abs(corners).max()):
             kept += 1
             continue
         culled += 1
@@ -174,13 +175,14 @@ def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that
 
 def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
     """_emitters_picked against np.searchsorted (the number of cdf values <= each pick, at
-    most M - 1), for 1 to 20 emitters (counted up to LINEAR_PICK, searched beyond), emitters
-    of no power (repeated cdf values) among them, picks exactly on cdf values, on the last
-    and just below 1 (the last emitter, whatever the cdf's rounding)."""
-    from patchlight.radiosity._kernels import _emitters_picked
+    most M - 1), for 1 to 20 emitters (counted and selected up to LINEAR_PICK, searched and
+    gathered beyond), emitters of no power (repeated cdf values) among them, picks exactly on
+    cdf values, on the last and just below 1 (the last emitter, whatever the cdf's rounding);
+    each pick's table column is its emitter's."""
+    from patchlight.radiosity._kernels import E_COLUMNS, _emitters_picked
     from numba import njit
 
-    picked = njit(lambda out, pick, cdf: _emitters_picked(out, pick, cdf))
+    picked = njit(lambda out, pick, cdf, table, t: _emitters_picked(out, pick, cdf, table, t))
     rng = np.random.default_rng(3)
     for m in range(1, 21):
         power = rng.random(m) * (rng.random(m) > 0.3)
@@ -188,5 +190,9 @@ def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
         cdf = np.cumsum(power / power.sum())
         pick = np.concatenate([rng.random(64), cdf[:-1], [0.0, cdf[-1], np.nextafter(1.0, 0.0)]])
         out = np.empty(len(pick), np.int64)
-        picked(out, pick, cdf)
-        np.testing.assert_array_equal(out, np.minimum(np.searchsorted(cdf, pick, side="right"), m - 1))
+        table = rng.random((E_COLUMNS, m))
+        t = np.empty((E_COLUMNS, len(pick)))
+        picked(out, pick, cdf, table, t)
+        expected = np.minimum(np.searchsorted(cdf, pick, side="right"), m - 1)
+        np.testing.assert_array_equal(out, expected)
+        np.testing.assert_array_equal(t, table[:, expected])

@@ -142,7 +142,7 @@ def sub_texel_cells(n):
 
 @njit(cache=True, inline="always")
 def texel_points(out, p, grid, cells):
-    """Write into out (K, 3) f64 the points of patch p at the K `sub_texel_cells` (2, K) of its
+    """Write into out (3, K) f64 the points of patch p at the K `sub_texel_cells` (2, K) of its
     texel, on the plane of its triangle (one loop over the K points, without branches); K = 1:
     the patch's own position, as `TexelPoints` gives for n = 1.
 
@@ -164,17 +164,17 @@ def texel_points(out, p, grid, cells):
     a0, a1, a2 = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
     b0, b1, b2 = corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2]
     c0, c1, c2 = corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2]
-    single = out.shape[0] == 1
-    for k in range(out.shape[0]):
+    single = out.shape[1] == 1
+    for k in range(out.shape[1]):
         dx = x + cells[0, k] - ax
         dy = y + cells[1, k] - ay
         w1 = (dx * e2y - dy * e2x) / safe
         w2 = (e1x * dy - e1y * dx) / safe
         w0 = 1.0 - w1 - w2
         past = single | flat | ((w0 < 0.0) & rim12) | ((w1 < 0.0) & rim20) | ((w2 < 0.0) & rim01)
-        out[k, 0] = p0 if past else w0 * a0 + w1 * b0 + w2 * c0
-        out[k, 1] = p1 if past else w0 * a1 + w1 * b1 + w2 * c1
-        out[k, 2] = p2 if past else w0 * a2 + w1 * b2 + w2 * c2
+        out[0, k] = p0 if past else w0 * a0 + w1 * b0 + w2 * c0
+        out[1, k] = p1 if past else w0 * a1 + w1 * b1 + w2 * c1
+        out[2, k] = p2 if past else w0 * a2 + w1 * b2 + w2 * c2
 
 
 @njit(cache=True, nogil=True)
@@ -183,7 +183,7 @@ def sub_texel_points(rows, grid, n):
     out = np.empty((rows.shape[0], n * n, 3))
     cells = sub_texel_cells(n)
     for r in range(rows.shape[0]):
-        texel_points(out[r], rows[r], grid, cells)
+        texel_points(out[r].T, rows[r], grid, cells)
     return out
 
 

@@ -276,18 +276,18 @@ CULL_MARGIN = 1e-9  # of the coordinates' size: far above rounding (~1e-15 of it
 def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
     """True when every emitter (corners (M, 3, 3), em_normal (M, 3), em_two_sided (M,)) lies
     behind the plane of the texel's normal (nx, ny, nz) through its nearest ray origin (points
-    (K, 3) lifted by (lx, ly, lz)), or sees all those origins from behind its own plane (one-
+    (3, K) lifted by (lx, ly, lz)), or sees all those origins from behind its own plane (one-
     sided), each by CULL_MARGIN of the coordinates' size (the largest |x| of the origins and
     of the corners, `reach`) and more: then emitter_rays would find cos <= 0 at every sample,
     whatever the rounding. Tests at most K emitters (more: False), stopping at the first in view."""
-    k_count, m = points.shape[0], corners.shape[0]
+    k_count, m = points.shape[1], corners.shape[0]
     if m > k_count:
         return False
     near = np.inf
     lo0 = lo1 = lo2 = np.inf
     hi0 = hi1 = hi2 = -np.inf
     for j in range(k_count):
-        ox, oy, oz = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
+        ox, oy, oz = points[0, j] + lx, points[1, j] + ly, points[2, j] + lz
         near = min(near, nx * ox + ny * oy + nz * oz)
         lo0, lo1, lo2 = min(lo0, ox), min(lo1, oy), min(lo2, oz)
         hi0, hi1, hi2 = max(hi0, ox), max(hi1, oy), max(hi2, oz)
@@ -310,21 +310,33 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
     return True
 
 
+# the rows of `_emitter_table`
+E_LO, E_SHARE, E_PDF, E_TWO_SIDED, E_NORMAL, E_CORNERS, E_COLUMNS = 0, 1, 2, 3, 4, 7, 16
+
+
 LINEAR_PICK = 8  # emitters up to which a pick's emitter is counted, not searched for
 
 
 @nb.njit(cache=True, inline="always")
-def _emitters_picked(count, pick, cdf):
+def _emitters_picked(count, pick, cdf, table, t):
     """count (K,) the emitter each pick (K,) in [0, 1) chooses from cdf (M,) ascending: the
-    number of cdf values <= the pick, at most M - 1, for all K picks at once without branches:
-    up to LINEAR_PICK emitters counted (cdf values but the last <= each pick), more by a binary
-    search whose every step moves all K picks."""
+    number of cdf values <= the pick, at most M - 1; and t (E_COLUMNS, K) its column of
+    table (`_emitter_table`). All K picks at once without branches: up to LINEAR_PICK
+    emitters counted (cdf values but the last <= each pick) and their columns selected, so
+    nothing is gathered; more by a binary search whose every step moves all K picks, then a
+    gather of the columns."""
     m = cdf.shape[0]
     count[:] = 0
     if m <= LINEAR_PICK:
+        for q in range(E_COLUMNS):
+            t[q, :] = table[q, 0]
         for i in range(m - 1):
             for j in range(count.shape[0]):
                 count[j] += cdf[i] <= pick[j]
+            for q in range(E_COLUMNS):
+                value = table[q, i + 1]
+                for j in range(count.shape[0]):
+                    t[q, j] = value if cdf[i] <= pick[j] else t[q, j]
         return
     step = 1
     while step * 2 <= m:
@@ -336,10 +348,9 @@ def _emitters_picked(count, pick, cdf):
         step >>= 1
     for j in range(count.shape[0]):
         count[j] = min(count[j], m - 1)
-
-
-# the rows of `_emitter_table`
-E_LO, E_SHARE, E_PDF, E_TWO_SIDED, E_NORMAL, E_CORNERS, E_COLUMNS = 0, 1, 2, 3, 4, 7, 16
+    for q in range(E_COLUMNS):
+        for j in range(count.shape[0]):
+            t[q, j] = table[q, count[j]]
 
 
 @nb.njit(cache=True, inline="always")
@@ -391,7 +402,7 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     dirs = np.empty((n, 3), np.float32)
     tmax = np.empty(n, np.float32)
     value = np.empty((n, 3), np.float32)
-    points = np.empty((k_count, 3))
+    points = np.empty((3, k_count))
     cells = sub_texel_cells(side)
     perms = np.empty((2, k_count), np.int64)  # per texel: strata paired with points for the pick, the point
     perm_pick, perm_point = perms
@@ -421,11 +432,8 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
         for j in range(k_count):
             s2[j] = _divided(perm_point[j] + _hash_uniform(key, 2 * k_count + 2 * j + 1), k_count, inv_k)
         for j in range(k_count):
-            o[0, j], o[1, j], o[2, j] = points[j, 0] + lx, points[j, 1] + ly, points[j, 2] + lz
-        _emitters_picked(picked, pick, cdf)
-        for q in range(E_COLUMNS):
-            for j in range(k_count):
-                t[q, j] = table[q, picked[j]]
+            o[0, j], o[1, j], o[2, j] = points[0, j] + lx, points[1, j] + ly, points[2, j] + lz
+        _emitters_picked(picked, pick, cdf, table, t)
         for j in range(k_count):
             s1[j] = np.sqrt(min(max((pick[j] - t[E_LO, j]) / t[E_SHARE, j], 0.0), 1.0))
         for a in range(3):  # from the origin to the point (bw, bu, bv) on the emitter
