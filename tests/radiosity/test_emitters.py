@@ -144,6 +144,37 @@ def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
     assert culled > 50 and kept > 50
 
 
+def test_the_corners_of_a_texels_grid_cull_as_all_its_points_do():
+    """emitter_rays tests the four corner points of a texel's grid of points (an affine image
+    of the cells, none past a rim): the culling decision equals the one over all 64 points,
+    emitters in front, behind and edge-on among the cases."""
+    from patchlight.radiosity._kernels import _faces_no_emitter
+
+    rng = np.random.default_rng(8)
+    culled = 0
+    across = (np.arange(8) + 0.5) / 8
+    for case in range(300):
+        corners = rng.normal(size=(2, 3, 3)) * 3
+        em_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        em_normal /= np.linalg.norm(em_normal, axis=1, keepdims=True)
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        u, v = np.cross(n, rng.normal(size=3)), rng.normal(size=3)
+        v -= (v @ n) * n
+        base = rng.normal(size=3) * 3
+        if case % 3 == 1:  # the texel's plane through an emitter's corner
+            base += n * (corners[0, case % 3] @ n - base @ n)
+        i, j = np.meshgrid(across, across, indexing="ij")
+        points = (base[:, None] + 2.0 * (u[:, None] * i.ravel() + v[:, None] * j.ravel()))  # (3, 64)
+        hull = np.ascontiguousarray(points[:, [0, 7, 56, 63]])
+        two_sided = np.array([case % 5 == 2, False])
+        args = (0.0, 0.0, 0.0, *n, corners, em_normal, two_sided, np.abs(corners).max())
+        whole = _faces_no_emitter(np.ascontiguousarray(points), *args)
+        assert _faces_no_emitter(hull, *args) == whole, case
+        culled += whole
+    assert 30 < culled < 270
+
+
 def test_an_emitter_stands_for_one_patch_only_where_every_point_of_it_reads_that_emission():
     """uniform_patches against `_patch_at` at 2,000 points of each triangle (its corners among
     them) on a 16 x 16 map: a block of equal emission, a block of two, uncovered texels."""

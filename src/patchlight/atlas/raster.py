@@ -144,7 +144,9 @@ def sub_texel_cells(n):
 def texel_points(out, p, grid, cells):
     """Write into out (3, K) f64 the points of patch p at the K `sub_texel_cells` (2, K) of its
     texel, on the plane of its triangle (one loop over the K points, without branches); K = 1:
-    the patch's own position, as `TexelPoints` gives for n = 1.
+    the patch's own position, as `TexelPoints` gives for n = 1. Returns how many points took
+    the patch's position; when none did, the points are an affine image of the cells' grid,
+    inside the quadrilateral of its four corner points.
 
     grid: (texel_x, texel_y, triangle, position, tex, corners, rim) of `atlas.raster.TexelPoints`:
     the patches' texels and triangles, their own points (N, 3), taken where a point falls past
@@ -165,6 +167,7 @@ def texel_points(out, p, grid, cells):
     b0, b1, b2 = corners[t, 1, 0], corners[t, 1, 1], corners[t, 1, 2]
     c0, c1, c2 = corners[t, 2, 0], corners[t, 2, 1], corners[t, 2, 2]
     single = out.shape[1] == 1
+    taken = 0
     for k in range(out.shape[1]):
         dx = x + cells[0, k] - ax
         dy = y + cells[1, k] - ay
@@ -175,6 +178,8 @@ def texel_points(out, p, grid, cells):
         out[0, k] = p0 if past else w0 * a0 + w1 * b0 + w2 * c0
         out[1, k] = p1 if past else w0 * a1 + w1 * b1 + w2 * c1
         out[2, k] = p2 if past else w0 * a2 + w1 * b2 + w2 * c2
+        taken += past
+    return taken
 
 
 @njit(cache=True, nogil=True)

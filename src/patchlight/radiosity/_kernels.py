@@ -279,10 +279,10 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
     (3, K) lifted by (lx, ly, lz)), or sees all those origins from behind its own plane (one-
     sided), each by CULL_MARGIN of the coordinates' size (the largest |x| of the origins and
     of the corners, `reach`) and more: then emitter_rays would find cos <= 0 at every sample,
-    whatever the rounding. Tests at most K emitters (more: False), stopping at the first in view."""
+    whatever the rounding. Stops at the first emitter in view. The points may be the corners
+    of a convex set of origins: the nearest, the farthest and the bounds are those of its
+    corners (all three are linear), and the margin dwarfs the rounding of the points inside."""
     k_count, m = points.shape[1], corners.shape[0]
-    if m > k_count:
-        return False
     near = np.inf
     lo0 = lo1 = lo2 = np.inf
     hi0 = hi1 = hi2 = -np.inf
@@ -403,6 +403,8 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     tmax = np.empty(n, np.float32)
     value = np.empty((n, 3), np.float32)
     points = np.empty((3, k_count))
+    hull = np.empty((3, 4))
+    grid_corners = np.array([0, side - 1, k_count - side, k_count - 1])  # the cells' corners, point ids
     cells = sub_texel_cells(side)
     perms = np.empty((2, k_count), np.int64)  # per texel: strata paired with points for the pick, the point
     perm_pick, perm_point = perms
@@ -422,8 +424,14 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
         nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
         lift_p = np.float64(lift[p])
         lx, ly, lz = lift_p * nx, lift_p * ny, lift_p * nz
-        texel_points(points, p, grid, cells)
-        if _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided, reach):
+        bounds = points
+        if texel_points(points, p, grid, cells) == 0 and k_count > 4:  # an affine grid: its corners bound it
+            for a in range(3):
+                for q in range(4):
+                    hull[a, q] = points[a, grid_corners[q]]
+            bounds = hull
+        if m <= k_count and _faces_no_emitter(bounds, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two_sided,
+                                              reach):  # tested for at most K emitters, as many as samples
             continue
         key = np.int64(p) * 1000003 + seed
         _shuffle(perms, key, draws)
