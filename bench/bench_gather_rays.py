@@ -21,7 +21,7 @@ from patchlight.atlas.uvs import ensure_lightmap_uvs
 from patchlight.config import BakeSettings
 from patchlight.radiosity.emitters import find_emitters, samples_per_texel
 from patchlight.radiosity.gather import Gatherer
-from patchlight.rays.hemisphere import hemisphere_rays, row_angles
+from patchlight.rays.hemisphere import hemisphere_rays
 from patchlight.rays.tracer import Tracer
 from patchlight.scene import load_scene
 
@@ -52,7 +52,7 @@ def run(name: str, resolution: int, patches: int, repeat: int, emitter_samples: 
     scene = g.tracer._ready()
 
     def bare(chunk):
-        origins, dirs = hemisphere_rays(p.position, p.normal, g.offset, chunk, g.dirs, row_angles(chunk, g.seed))
+        origins, dirs = hemisphere_rays(p.position, p.normal, g.offset, chunk, g.dirs, g.seed)
         start = time.thread_time()
         scene.run(origins, dirs, output=1)
         return time.thread_time() - start

@@ -27,7 +27,7 @@ from .config import setting, validate_fields
 from .errors import PatchlightError
 from .imaging.dilate import dilate
 from .radiosity.hemicube import stratified_directions
-from .rays.hemisphere import hemisphere_rays, row_angles
+from .rays.hemisphere import hemisphere_rays
 from .rays.tracer import Tracer
 from .scene.model import Scene, face_normals
 from .shading.surface import SurfaceArrays, interpolate
@@ -160,8 +160,8 @@ def _occlusion(tracer, high, points, tri, incoming, shading_normal, settings, re
     rows = np.arange(len(points), dtype=np.int64)
     lift = np.float32(1e-4 * reach) + 1e-5 * np.abs(points).max(axis=1)
     origin = (points + lift[:, None] * face).astype(np.float32)
-    o, d = hemisphere_rays(origin, normal.astype(np.float32), np.zeros(len(points), np.float32), rows,
-                           dirs, row_angles(rows, start))
+    o, d = hemisphere_rays(origin, normal.astype(np.float32), np.zeros(len(points), np.float32), rows, dirs,
+                           start)
     blocked = tracer.occluded(o, d, np.float32(reach)).reshape(len(points), len(dirs))
     return 1.0 - blocked.mean(axis=1)
 

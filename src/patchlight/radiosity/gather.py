@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..atlas.patches import Patches
-from ..rays.hemisphere import hemisphere_rays, row_angles
+from ..rays.hemisphere import hemisphere_rays
 from ..rays.inside import back_faces, back_share, two_sided_triangles
 from ..rays.tracer import Tracer, spans
 from ..scene.model import Scene
@@ -163,8 +163,7 @@ class Gatherer:
     def _rays(self, rows: np.ndarray, local_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Origins and directions (R * D, 3) f32 of patches `rows` looking along `local_dirs` (D, 3)."""
         p = self.patches
-        return hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64), local_dirs,
-                               row_angles(rows, self.seed))
+        return hemisphere_rays(p.position, p.normal, self.offset, rows.astype(np.int64), local_dirs, self.seed)
 
     def _see(self, rows: np.ndarray, local_dirs: np.ndarray):
         """The item buffer of patches `rows` looking along `local_dirs` (D, 3): (R * D,) patch

@@ -24,7 +24,7 @@ from ..config import FALLOFFS, setting, validate_fields
 from ..progress import Progress
 from ..radiosity.direct import direct_light
 from ..radiosity.hemicube import stratified_directions
-from ..rays.hemisphere import hemisphere_rays, row_angles
+from ..rays.hemisphere import hemisphere_rays
 from ..rays.inside import back_faces, back_share, is_inside, two_sided_triangles
 from ..rays.tracer import Tracer
 from ..solved import SolvedScene
@@ -38,7 +38,7 @@ T_NEAR = 2e-4               # rays start this far along (x the scene's size): a 
 OPEN_SIDE_MIN = 0.05        # below this length the rays' open directions cancel out: no open side
 RAYS_PER_CHUNK = 1 << 20    # rays traced per batch: bounds memory at ~100 MB
 MAX_RAYS = 16384            # rays per axis
-MAX_SEED = 2**32 - 1        # numpy's seed range; row_angles' (row + seed) x golden ratio keeps its precision below it
+MAX_SEED = 2**32 - 1        # numpy's seed range; row_angle's (row + seed) x golden ratio keeps its precision below it
 
 
 @dataclass
@@ -121,7 +121,7 @@ class IncidentGatherer:
     def _gather_rows(self, origins, normals, offset, rows) -> tuple[np.ndarray, ...]:
         """gather's results for `rows`; each row's ray pattern turned by its own angle."""
         d = self.rays_per_point
-        o, dirs = hemisphere_rays(origins, normals, offset, rows, self.dirs, row_angles(rows, self.settings.seed))
+        o, dirs = hemisphere_rays(origins, normals, offset, rows, self.dirs, self.settings.seed)
         hits = self.tracer.intersect(o + self.t_near * dirs, dirs)
         back = back_faces(hits.tri, hits.front, self.two_sided)
         light, open_side = _volume_kernels.sum_rows(hits.tri, hits.u, hits.v, back, dirs, self.weights, self.tri_uv1,
