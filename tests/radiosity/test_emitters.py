@@ -103,6 +103,16 @@ def test_ten_thousand_emitters_light_the_floor_as_the_same_area_merged():
     assert np.percentile(np.abs(b / a - 1), 90) < 0.05
 
 
+def _two_emitters_and_a_normal(rng):
+    """Two random emitter triangles (corners (2, 3, 3), unit normals (2, 3)) and a random
+    unit texel normal (3,), as the culling tests draw them."""
+    corners = rng.normal(size=(2, 3, 3)) * 3
+    em_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    em_normal /= np.linalg.norm(em_normal, axis=1, keepdims=True)
+    n = rng.normal(size=3)
+    return corners, em_normal, n / np.linalg.norm(n)
+
+
 def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
     """emitter_rays skips the texels `_faces_no_emitter` finds facing away from every emitter
     (or behind every one): brute force over 300 points of each emitter (its corners among
@@ -113,11 +123,7 @@ def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
     rng = np.random.default_rng(5)
     culled = kept = 0
     for case in range(400):
-        corners = rng.normal(size=(2, 3, 3)) * 3
-        em_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        em_normal /= np.linalg.norm(em_normal, axis=1, keepdims=True)
-        n = rng.normal(size=3)
-        n /= np.linalg.norm(n)
+        corners, em_normal, n = _two_emitters_and_a_normal(rng)
         points = rng.normal(size=(4, 3)) * 0.01 + rng.normal(size=3) * 3
         points -= np.outer(points @ n - (points @ n).mean(), n)  # on one plane, as a texel's points
         if case % 4 == 1:    # an emitter's corner in the plane of the texel's points
@@ -154,11 +160,7 @@ def test_the_corners_of_a_texels_grid_cull_as_all_its_points_do():
     culled = 0
     across = (np.arange(8) + 0.5) / 8
     for case in range(300):
-        corners = rng.normal(size=(2, 3, 3)) * 3
-        em_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        em_normal /= np.linalg.norm(em_normal, axis=1, keepdims=True)
-        n = rng.normal(size=3)
-        n /= np.linalg.norm(n)
+        corners, em_normal, n = _two_emitters_and_a_normal(rng)
         u, v = np.cross(n, rng.normal(size=3)), rng.normal(size=3)
         v -= (v @ n) * n
         base = rng.normal(size=3) * 3
