@@ -6,6 +6,7 @@ every ray at t = 0: callers offset their origins off the surface themselves.
 """
 from __future__ import annotations
 
+import itertools
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -71,6 +72,43 @@ def _threads() -> int:
     return max(1, int(os.environ.get("PATCHLIGHT_THREADS", os.cpu_count() or 1)))
 
 
+class _Batch:
+    """Items handed out one at a time to whichever worker asks next (`Tracer.map`). The first
+    exception stops the handing out and is raised by `results` once every item taken has
+    finished, so no item of the batch still runs when `map` returns or raises. A helper that
+    starts after the caller took every item finds none left: a map inside a pool's task
+    cannot wait on itself."""
+
+    def __init__(self, fn, items: list):
+        self._fn, self._items = fn, items
+        self._out = [None] * len(items)
+        self._next = itertools.count()  # next() on a count is atomic under the GIL
+        self._left = len(items)
+        self._lock = threading.Lock()
+        self._finished = threading.Event()
+        self._error = None
+
+    def work(self) -> None:
+        """Take items until none is left; run each unless one has failed."""
+        while (i := next(self._next)) < len(self._items):
+            if self._error is None:
+                try:
+                    self._out[i] = self._fn(self._items[i])
+                except BaseException as exc:  # a KeyboardInterrupt too: raised once the others stop
+                    self._error = self._error or exc
+            with self._lock:
+                self._left -= 1
+                if self._left == 0:
+                    self._finished.set()
+
+    def results(self) -> list:
+        """Every item's result, in order, once all have finished; or the first exception."""
+        self._finished.wait()
+        if self._error is not None:
+            raise self._error
+        return self._out
+
+
 class Tracer:
     """Closest-hit and occlusion queries against a fixed triangle soup.
 
@@ -102,7 +140,7 @@ class Tracer:
 
             self._scene = rtcore_scene.EmbreeScene()
             self._mesh = TriangleMesh(self._scene, self.positions, self.indices)
-            self._pool = ThreadPoolExecutor(_threads())
+            self._pool = ThreadPoolExecutor(max(1, _threads() - 1))  # the caller is the other worker
         return self._scene
 
     @property
@@ -111,12 +149,19 @@ class Tracer:
         return _threads()
 
     def map(self, fn, items: list) -> list:
-        """fn over items on the tracer's thread pool (one thread per core), results in order.
-        For pipelines whose every stage releases the GIL: numba nogil kernels, Embree calls."""
+        """fn over items, the results in order, on `threads` workers at once: the calling
+        thread and threads - 1 of the tracer's pool, each taking the next item left (`_Batch`).
+        For pipelines whose every stage releases the GIL: numba nogil kernels, Embree calls.
+        The caller works too, so a batch costs a hand-off per helper, not a future per item."""
         self._ready()
-        if len(items) <= 1 or _threads() == 1:
+        helpers = min(self.threads, len(items)) - 1
+        if helpers <= 0:
             return [fn(item) for item in items]
-        return list(self._pool.map(fn, items))
+        batch = _Batch(fn, items)
+        for _ in range(helpers):
+            self._pool.submit(batch.work)
+        batch.work()
+        return batch.results()
 
     def over_spans(self, fn, first: int, last: int, size: int | None = None) -> list:
         """fn(start, stop) over rows first..last-1 cut into `spans` (of `size` rows), as
