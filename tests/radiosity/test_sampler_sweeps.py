@@ -1,5 +1,7 @@
 """The sampler's sweeps run in spans on the tracer's pool: the same answer as one sequential
 sweep in the sampler's order, whichever order the spans run in."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -109,3 +111,35 @@ def test_once_all_is_decided_the_texels_inside_need_no_interpolation(plan, one_b
     assert not np.any(status == adaptive.UNDECIDED) and np.count_nonzero(status == adaptive.INTERPOLATED) > 100
     expected = _interpolate_reference(G, status, order)
     np.testing.assert_array_equal(adaptive.interpolate(G, status, order, one_by_one), expected)
+
+
+def test_the_plan_has_every_texel_once_with_its_neighbours_in_its_own_chart():
+    """On a map with holes and two charts side by side: the grid and the steps' targets
+    together are every covered texel, once; each target's neighbours are the texels at its
+    step's offsets, -1 off the map, uncovered or in the other chart."""
+    rng = np.random.default_rng(9)
+    height, width = 13, 18
+    covered = rng.random((height, width)) < 0.8
+    index = np.full((height, width), -1, np.int32)
+    index[covered] = np.arange(covered.sum())
+    y, x = np.nonzero(covered)
+    chart = (x >= 7).astype(np.int32)  # columns 0..6 one chart, 7.. the other
+    patches = SimpleNamespace(index=index, chart=chart, height=height)
+    grid, phases = adaptive.sampler_plan(patches)
+    steps = [step for phase in phases for step in phase]
+    np.testing.assert_array_equal(np.sort(np.concatenate([grid] + [s.targets for s in steps])), np.arange(len(y)))
+    np.testing.assert_array_equal(grid, np.flatnonzero((y % 4 == 0) & (x % 4 == 0)))
+    kinds = [(s, phase, offsets) for s in (4, 2) for phase, offsets in (  # horizontal, vertical, centre
+        ((0, s // 2), [(0, -s // 2), (0, s // 2)]), ((s // 2, 0), [(-s // 2, 0), (s // 2, 0)]),
+        ((s // 2, s // 2), [(-s // 2, 0), (s // 2, 0), (0, -s // 2), (0, s // 2)]))]
+    assert len(steps) == len(kinds)
+    for step, (spacing, phase, offsets) in zip(steps, kinds):
+        assert step.spacing == spacing
+        np.testing.assert_array_equal(step.targets, np.flatnonzero((y % spacing == phase[0]) & (x % spacing == phase[1])))
+        np.testing.assert_array_equal(step.row_starts, np.searchsorted(y[step.targets], np.arange(height + 1)))
+        for t, nbs in zip(step.targets, step.neighbours):
+            for (dy, dx), got in zip(offsets, nbs):
+                yy, xx = y[t] + dy, x[t] + dx
+                inside_map = 0 <= yy < height and 0 <= xx < width
+                other = index[yy, xx] if inside_map else -1
+                assert got == (other if other >= 0 and chart[other] == chart[t] else -1)

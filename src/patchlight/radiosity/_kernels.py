@@ -769,6 +769,43 @@ def interpolate_rows(G, have, status, targets, neighbours, starts, nb_starts, wi
     return None
 
 
+@nb.njit(cache=True, nogil=True)
+def step_targets(index, chart, spacing, phase_y, phase_x, offsets):
+    """One step of the adaptive sampler, read off the patch index (H, W) i32 (patch ids
+    ascending in (y, x) order, -1 uncovered) at the texels (y, x) with y % spacing == phase_y
+    and x % spacing == phase_x: their patches, the targets, ascending (K,) i32; each one's
+    neighbours at `offsets` (W, 2) (dy, dx), (K, W) i32 patch ids, -1 off the map, uncovered
+    or in another chart (`chart` (N,)); and row_starts (H + 1,) i64, where each lightmap row's
+    targets begin."""
+    height, width = index.shape
+    count = 0
+    for y in range(phase_y, height, spacing):
+        for x in range(phase_x, width, spacing):
+            count += index[y, x] >= 0
+    targets = np.empty(count, np.int32)
+    neighbours = np.full((count, offsets.shape[0]), -1, np.int32)
+    row_starts = np.zeros(height + 1, np.int64)
+    k = 0
+    for y in range(height):
+        row_starts[y] = k
+        if y % spacing != phase_y:
+            continue
+        for x in range(phase_x, width, spacing):
+            i = index[y, x]
+            if i < 0:
+                continue
+            targets[k] = i
+            for j in range(offsets.shape[0]):
+                yy, xx = y + offsets[j, 0], x + offsets[j, 1]
+                if 0 <= yy < height and 0 <= xx < width:
+                    other = index[yy, xx]
+                    if other >= 0 and chart[other] == chart[i]:
+                        neighbours[k, j] = other
+            k += 1
+    row_starts[height] = k
+    return targets, neighbours, row_starts
+
+
 @nb.njit(cache=True, inline="always")
 def _ratio(a, b):
     """The radiosity article's ratio2 of two f32 values: 1 when both are 0, 0 when one is,

@@ -51,38 +51,24 @@ class Step:
     row_starts: np.ndarray
 
 
-def _ids_at(p: Patches, y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    inside = (y >= 0) & (y < p.height) & (x >= 0) & (x < p.width)
-    ids = np.full(y.shape, -1, np.int64)
-    ids[inside] = p.index[y[inside], x[inside]]
-    return ids
-
-
-def _step(p: Patches, y: np.ndarray, x: np.ndarray, select, offsets, spacing: int) -> Step:
-    """The patches whose texel (y, x) (N,) int64 satisfies select(y, x), with neighbours at offsets."""
-    targets = np.flatnonzero(select(y, x))
-    ty, tx = y[targets], x[targets]
-    nbs = np.stack([_ids_at(p, ty + dy, tx + dx) for dy, dx in offsets], axis=1)
-    same_chart = np.where(nbs >= 0, p.chart[np.maximum(nbs, 0)] == p.chart[targets][:, None], False)
-    return Step(targets.astype(np.int32), np.where(same_chart, nbs, -1).astype(np.int32), spacing,
-                max(abs(dy) for dy, _ in offsets), np.searchsorted(ty, np.arange(p.height + 1)))
+def _step(p: Patches, phase: tuple[int, int], offsets: list[tuple[int, int]], spacing: int) -> Step:
+    """The patches whose texel (y, x) has (y % spacing, x % spacing) == phase, with their
+    neighbours at offsets (dy, dx) (`_kernels.step_targets`)."""
+    targets, neighbours, row_starts = _kernels.step_targets(p.index, p.chart, spacing, *phase,
+                                                            np.array(offsets, np.int64).reshape(-1, 2))
+    return Step(targets, neighbours, spacing, max((abs(dy) for dy, _ in offsets), default=0), row_starts)
 
 
 def sampler_plan(p: Patches) -> tuple[np.ndarray, list[list[Step]]]:
     """The initial grid (patch ids on every 4th texel) and the rounds of steps that follow:
     [[type 1 horizontal, type 1 vertical], [type 2]] for spacing 4, then for spacing 2."""
-    y, x = p.texel_y.astype(np.int64), p.texel_x.astype(np.int64)
-    grid = np.flatnonzero((y % SPACING == 0) & (x % SPACING == 0))
+    grid = _step(p, (0, 0), [], SPACING).targets.astype(np.int64)
     phases = []
     spacing = SPACING
     while spacing > 1:
         s, h = spacing, spacing // 2
-        phases.append([
-            _step(p, y, x, lambda y, x: (y % s == 0) & (x % s == h), [(0, -h), (0, h)], s),
-            _step(p, y, x, lambda y, x: (y % s == h) & (x % s == 0), [(-h, 0), (h, 0)], s),
-        ])
-        phases.append([_step(p, y, x, lambda y, x: (y % s == h) & (x % s == h),
-                             [(-h, 0), (h, 0), (0, -h), (0, h)], s)])
+        phases.append([_step(p, (0, h), [(0, -h), (0, h)], s), _step(p, (h, 0), [(-h, 0), (h, 0)], s)])
+        phases.append([_step(p, (h, h), [(-h, 0), (h, 0), (0, -h), (0, h)], s)])
         spacing = h
     return grid, phases
 
