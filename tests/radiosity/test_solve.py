@@ -57,7 +57,7 @@ def test_a_panel_block_holds_its_rows_panel_by_panel_in_column_order(n_cols, uni
     import numpy as np
     import scipy.sparse as sp
 
-    from patchlight.radiosity.solve import PanelBlock, blocks_times
+    from patchlight.radiosity.solve import BlockRun, PanelBlock
 
     cuts = [0, 700, 700, 701, 1500, 2000]  # the gather's chunks: pieces of consecutive rows, one empty
     pieces, weights, rows, cols, w = _pieces(n_cols, cuts, uniform)
@@ -83,7 +83,7 @@ def test_a_panel_block_holds_its_rows_panel_by_panel_in_column_order(n_cols, uni
     else:
         np.testing.assert_allclose(block.weights, w[order], rtol=1e-6)
     B = np.random.default_rng(4).random((n_cols, 3), dtype=np.float32)
-    np.testing.assert_allclose(blocks_times([block], B), F @ B, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(BlockRun([block]).times(B), F @ B, rtol=1e-5, atol=1e-6)
     whole = PanelBlock.of(_pieces(n_cols, [0, 2000], uniform)[0], run, unit)  # the rows at once make the same block
     for name in ("starts", "entries", "weights"):
         np.testing.assert_array_equal(getattr(block, name), getattr(whole, name))
@@ -92,15 +92,15 @@ def test_a_panel_block_holds_its_rows_panel_by_panel_in_column_order(n_cols, uni
 def test_a_panel_block_takes_at_most_2_16_rows_and_may_be_empty():
     import numpy as np
 
-    from patchlight.radiosity.solve import PanelBlock, blocks_times
+    from patchlight.radiosity.solve import BlockRun, PanelBlock
 
     def run(fn, items):
         return [fn(item) for item in items]
 
-    assert blocks_times([PanelBlock.of([], run)], np.ones((70000, 3), np.float32)).shape == (0, 3)
+    assert BlockRun([PanelBlock.of([], run)]).times(np.ones((70000, 3), np.float32)).shape == (0, 3)
     words = (np.float32([2.0, 3.0]).view(np.uint32).astype(np.uint64) << 32) | (np.uint64([5, 0]) << 16)
     block = PanelBlock.of([PanelRows(np.array([0, 1, 2]), words, 1)], run)  # row 0: columns 5 and 65536
-    np.testing.assert_array_equal(blocks_times([block], np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
+    np.testing.assert_array_equal(BlockRun([block]).times(np.ones((70000, 3), np.float32)), [[5.0, 5.0, 5.0]])
     many = PanelRows(np.zeros(2, np.int64), np.zeros(0, np.uint64), 65537)
     with pytest.raises(ValueError, match="2\\^16 rows"):
         PanelBlock.of([many], run)
@@ -113,7 +113,7 @@ def test_a_panel_block_of_2_16_rows_reaches_its_last_row_from_a_later_piece(unif
     import numpy as np
 
     from patchlight.radiosity._kernels import entry_word
-    from patchlight.radiosity.solve import PanelBlock, blocks_times
+    from patchlight.radiosity.solve import BlockRun, PanelBlock
 
     def word(weight, column, row):
         return entry_word(row, column, 0 if uniform else np.float32(weight).view(np.uint32))
@@ -122,7 +122,7 @@ def test_a_panel_block_of_2_16_rows_reaches_its_last_row_from_a_later_piece(unif
     last = PanelRows(np.array([0, 1, 2]), np.array([word(3.0, 65535, 0), word(5.0, 1, 0)]), 1)
     block = PanelBlock.of([first, last], lambda fn, items: [fn(item) for item in items], 2.0 if uniform else None)
     B = np.arange(3 * 70000, dtype=np.float32).reshape(70000, 3)
-    out = blocks_times([block], B)
+    out = BlockRun([block]).times(B)
     assert out.shape == (65536, 3)
     np.testing.assert_array_equal(out[0], 2.0 * B[7])
     expected = 2.0 * (B[65535] + B[65536 + 1]) if uniform else 3.0 * B[65535] + 5.0 * B[65536 + 1]
@@ -135,7 +135,7 @@ def test_blocks_multiplied_together_give_each_blocks_own_product():
     rows come out as they do alone, bit for bit, one after the other."""
     import numpy as np
 
-    from patchlight.radiosity.solve import PanelBlock, blocks_times
+    from patchlight.radiosity.solve import BlockRun, PanelBlock
 
     def run(fn, items):
         return [fn(item) for item in items]
@@ -145,9 +145,10 @@ def test_blocks_multiplied_together_give_each_blocks_own_product():
     uniform = PanelBlock.of(_pieces(n_cols, [0, 400], uniform=True, seed=8)[0], run, 1 / 24)
     empty = PanelBlock.of(_pieces(n_cols, [0, 0])[0], run)
     B = np.random.default_rng(6).random((n_cols, 3), dtype=np.float32)
-    together = blocks_times([weighted, empty, uniform], B)
+    together = BlockRun([weighted, empty, uniform]).times(B)
     assert together.shape == (900, 3)
-    np.testing.assert_array_equal(together, np.concatenate([blocks_times([weighted], B), blocks_times([uniform], B)]))
+    alone = [BlockRun([block]).times(B) for block in (weighted, uniform)]
+    np.testing.assert_array_equal(together, np.concatenate(alone))
 
 
 @pytest.mark.parametrize("sizes, threads", [([5] * 20, 2), ([5] * 3, 2), ([1, 100, 1, 1], 2), ([7], 4), ([], 2)])

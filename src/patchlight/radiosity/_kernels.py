@@ -594,7 +594,7 @@ def emitting_patches(emission: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     and (ceil(N / 4096),) u8 one bit per LINE_PATCHES patches, set where any of them emits.
     The gather tests every ray that hits a patch: the second level (700 bytes at 2048) stays
     in the nearest cache and answers alone for the patches far from any emitter."""
-    bits = np.packbits(np.any(emission > 0, axis=1), bitorder="little")
+    bits = np.packbits((emission[:, 0] > 0) | (emission[:, 1] > 0) | (emission[:, 2] > 0), bitorder="little")
     lines = np.zeros(-(-len(bits) // (LINE_PATCHES // 8)) * (LINE_PATCHES // 8), np.uint8)
     lines[:len(bits)] = bits
     return bits, np.packbits(np.any(lines.reshape(-1, LINE_PATCHES // 8), axis=1), bitorder="little")

@@ -17,7 +17,7 @@ from .gather import Gatherer, PanelRows
 
 
 ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time, kept as one PanelBlock (at most 2^16 rows)
-RUN_BLOCKS = 4  # blocks one product task multiplies panel by panel (`blocks_times`): a fifth less CPU than 1, as 5; 10 lost it
+RUN_BLOCKS = 4  # blocks one product task multiplies panel by panel (`BlockRun`): a fifth less CPU than 1, as 5; 10 lost it
 
 
 @dataclass
@@ -38,6 +38,7 @@ class FormFactors:
     rays: int = 0            # gather rays traced, here or on a cluster, once per computed patch
     rays_regathered: int = 0  # and again for every product once F is not kept
     rays_probed: int = 0      # probe rays that looked for patches inside geometry first
+    _run_cache: tuple = ((0, 0), ())  # (first block, blocks kept) and the product's BlockRuns over them
 
     def probe_back_share(self, rows: np.ndarray) -> np.ndarray:
         """(R,) the share of a few probe rays from each patch of `rows` that meet back faces:
@@ -59,7 +60,7 @@ class FormFactors:
         if self.kept and self.nbytes + PanelBlock.size_of(g.F, self.gatherer.unit) <= self.budget:
             self.blocks.append(PanelBlock.of(g.F, self.gatherer.tracer.map, self.gatherer.unit))
         else:
-            self.kept, self.blocks = False, []
+            self.kept, self.blocks, self._run_cache = False, [], ((0, 0), ())
         return g.back_fraction
 
     def product(self, B: np.ndarray, first: int = 0) -> np.ndarray:
@@ -73,8 +74,14 @@ class FormFactors:
         if k >= len(self.blocks):
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        runs = _runs(self.blocks[k:], self.gatherer.tracer.threads)
-        return np.concatenate(self.gatherer.tracer.map(lambda run: blocks_times(run, B), runs))[first - ends[k]:]
+        return np.concatenate(self.gatherer.tracer.map(lambda run: run.times(B), self._runs_from(k)))[first - ends[k]:]
+
+    def _runs_from(self, k: int) -> list[BlockRun]:
+        """The product's tasks over blocks k.. (`_runs`), made once while the blocks stay the same."""
+        if self._run_cache[0] != (k, len(self.blocks)):
+            runs = _runs(self.blocks[k:], self.gatherer.tracer.threads)
+            self._run_cache = ((k, len(self.blocks)), [BlockRun(run) for run in runs])
+        return self._run_cache[1]
 
     @property
     def ids(self) -> np.ndarray:
@@ -146,14 +153,21 @@ class PanelBlock:
         return entries * (4 if unit is not None else 8) + 8 * len(pieces[0].starts if pieces else [0])
 
 
-def blocks_times(blocks: list[PanelBlock], B: np.ndarray) -> np.ndarray:
-    """(their rows, 3) f32: the rows of consecutive blocks of F times B (N, 3) f32, one after
-    the other, panel by panel across the blocks on the calling thread (`_kernels.blocks_times_rgb`)."""
-    if not blocks:
-        return np.zeros((0, 3), np.float32)
-    return _kernels.blocks_times_rgb(List([b.starts for b in blocks]), List([b.entries for b in blocks]),
-                                     List([b.weights for b in blocks]), np.float32([b.unit for b in blocks]),
-                                     np.array([b.n_rows for b in blocks], np.int64), B)
+class BlockRun:
+    """Consecutive blocks of F that one task multiplies by B, panel by panel across the blocks
+    (`_kernels.blocks_times_rgb`), their arrays put in numba lists once for every product."""
+
+    def __init__(self, blocks: list[PanelBlock]):
+        self._lists = (List([b.starts for b in blocks]), List([b.entries for b in blocks]),
+                       List([b.weights for b in blocks]), np.float32([b.unit for b in blocks]),
+                       np.array([b.n_rows for b in blocks], np.int64)) if blocks else None
+
+    def times(self, B: np.ndarray) -> np.ndarray:
+        """(the blocks' rows, 3) f32: their rows of F times B (N, 3) f32, one after the other,
+        on the calling thread."""
+        if self._lists is None:
+            return np.zeros((0, 3), np.float32)
+        return _kernels.blocks_times_rgb(*self._lists, B)
 
 
 def _runs(blocks: list[PanelBlock], threads: int) -> list[list[PanelBlock]]:
