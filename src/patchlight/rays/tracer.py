@@ -1,8 +1,9 @@
 """The ray tracer: Intel Embree (through embreex) behind one small interface.
 
-embreex traces each ray with the GIL released, so large batches are split into
-chunks that the calling thread and a pool share (`Tracer.map`): every core works. Embree takes float32 only and starts
-every ray at t = 0: callers offset their origins off the surface themselves.
+embreex traces each ray with the GIL released, so large batches are split into chunks
+that the calling thread and a pool share (`Tracer.map`): every core works. Embree takes
+float32 only and starts every ray at t = 0: callers offset their origins off the surface
+themselves.
 """
 from __future__ import annotations
 
