@@ -75,10 +75,10 @@ def _threads() -> int:
 
 class _Batch:
     """Items handed out one at a time to whichever worker asks next (`Tracer.map`). The first
-    exception stops the handing out and is raised by `results` once every item taken has
-    finished, so no item of the batch still runs when `map` returns or raises. A helper that
-    starts after the caller took every item finds none left: a map inside a pool's task
-    cannot wait on itself."""
+    exception an item raises stops the handing out and is raised by `results` once every
+    item taken has finished (an interrupt that arrives between items, or while the caller
+    waits, is raised at once). A helper that starts after the caller took every item finds
+    none left: a map inside a pool's task cannot wait on itself."""
 
     def __init__(self, fn, items: list):
         self._fn, self._items = fn, items
@@ -95,7 +95,7 @@ class _Batch:
             if self._error is None:
                 try:
                     self._out[i] = self._fn(self._items[i])
-                except BaseException as exc:  # a KeyboardInterrupt too: raised once the others stop
+                except BaseException as exc:  # an interrupt inside an item too: raised once the others stop
                     self._error = self._error or exc
             with self._lock:
                 self._left -= 1
@@ -141,7 +141,7 @@ class Tracer:
 
             self._scene = rtcore_scene.EmbreeScene()
             self._mesh = TriangleMesh(self._scene, self.positions, self.indices)
-            self._pool = ThreadPoolExecutor(max(1, _threads() - 1))  # the caller is the other worker
+            self._pool = ThreadPoolExecutor(max(1, _threads() - 1))  # the caller of `map` is a worker too
         return self._scene
 
     @property
