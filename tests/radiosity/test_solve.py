@@ -177,3 +177,38 @@ def test_a_block_takes_the_bytes_its_size_says(uniform):
     size = PanelBlock.size_of(pieces, unit)
     block = PanelBlock.of(pieces, lambda fn, items: [fn(item) for item in items], unit)
     assert size == block.nbytes and PanelBlock.size_of([], unit) == PanelBlock.of([], None).nbytes
+
+
+def test_a_pass_sweep_writes_incident_reflected_and_numpys_float16_of_the_incident():
+    """pass_light on spans of texels: I = D + G, 0 inside geometry; reflected (rho I + E) - E;
+    the float16 copy bit for bit NumPy's cast, over float16's whole range and past it
+    (subnormals, ties, overflow to inf); and with an empty copy, the same I and reflected."""
+    import numpy as np
+
+    from patchlight.radiosity import _kernels
+
+    rng = np.random.default_rng(11)
+    n = 4099
+    exponents = rng.uniform(-30, 17, (n, 3))  # 2^-30 (below float16's smallest) .. 2^17 (past its largest)
+    direct = (rng.random((n, 3)) * 2.0 ** exponents).astype(np.float32)
+    gathered = (rng.random((n, 3)) * 2.0 ** exponents).astype(np.float32)
+    direct[:64] = np.float32(2.0 ** -24 * np.arange(64 * 3).reshape(64, 3) / 2)  # float16 subnormals and their ties
+    gathered[:64] = 0.0
+    inside = rng.random(n) < 0.2
+    rho = rng.random((n, 3), dtype=np.float32)
+    emission = np.where(rng.random((n, 1)) < 0.1, rng.random((n, 3)), 0.0).astype(np.float32)
+    incident, reflected = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    half = np.empty((n, 3), np.uint16)
+    for a, b in ((0, 1000), (1000, 1001), (1001, n)):
+        _kernels.pass_light(direct[a:b], gathered[a:b], inside[a:b], rho[a:b], emission[a:b], incident[a:b],
+                            reflected[a:b], half[a:b])
+    expected = np.where(inside[:, None], np.float32(0.0), direct + gathered)
+    np.testing.assert_array_equal(incident, expected)
+    np.testing.assert_array_equal(reflected, (rho * expected + emission) - emission)
+    with np.errstate(over="ignore"):
+        np.testing.assert_array_equal(half, expected.astype(np.float16).view(np.uint16))
+    assert np.isinf(half.view(np.float16)).any() and (half.view(np.float16)[:64] != 0).any()
+    again, reflected_again = np.empty_like(incident), np.empty_like(reflected)
+    _kernels.pass_light(direct, gathered, inside, rho, emission, again, reflected_again, np.zeros((0, 3), np.uint16))
+    np.testing.assert_array_equal(again, incident)
+    np.testing.assert_array_equal(reflected_again, reflected)
