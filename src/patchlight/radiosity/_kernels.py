@@ -486,14 +486,24 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
 def unblocked_sums(value, ray, blocked, k, out):
     """Add into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
     emitter_rays' rays `ray` (L,) (sample ids r * k + j, ascending) but those `blocked` (L,)
-    (their shadow ray met something)."""
+    (their shadow ray met something). A texel's sums are kept in registers, and a blocked
+    ray adds its value times 0: no branch on the shadow rays' random outcome, and the same
+    sums, the values being finite and not negative (light)."""
+    if ray.shape[0] == 0:
+        return
     r, end = 0, k  # the texel of ray q, and its samples' end: no division per ray
+    red, green, blue = out[0, 0], out[0, 1], out[0, 2]
     for q in range(ray.shape[0]):
-        if not blocked[q]:
+        if ray[q] >= end:
+            out[r, 0], out[r, 1], out[r, 2] = red, green, blue
             while ray[q] >= end:
                 r, end = r + 1, end + k
-            for c in range(3):
-                out[r, c] += value[q, c]
+            red, green, blue = out[r, 0], out[r, 1], out[r, 2]
+        seen = np.float32(0.0) if blocked[q] else np.float32(1.0)
+        red += seen * value[q, 0]
+        green += seen * value[q, 1]
+        blue += seen * value[q, 2]
+    out[r, 0], out[r, 1], out[r, 2] = red, green, blue
 
 
 @nb.njit(cache=True, inline="always")
