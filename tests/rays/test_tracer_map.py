@@ -13,8 +13,7 @@ from patchlight.rays.tracer import Tracer
 @pytest.fixture
 def two_workers(monkeypatch):
     monkeypatch.setenv("PATCHLIGHT_THREADS", "2")
-    triangle = Tracer(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]]))
-    return triangle
+    return Tracer(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]]))
 
 
 def test_results_come_in_order_and_both_workers_take_items(two_workers):
