@@ -10,14 +10,17 @@ lightmaps record one tracer call in `--sample` K (default: 1 at 512, more above,
 copies stay under about 1.5 G); bare embreex's time is then that of the recorded calls
 scaled by all rays over recorded rays, per kind. Also prints each stage's CPU utilisation and
 the same ratio in CPU seconds (bake's process against bare embreex's), which a shared
-machine's load distorts less than the wall clock.
-Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N ...] [--gather G] [--scenes ...]`.
+machine's load distorts less than the wall clock. A lone ratio moves by a tenth with the
+machine's load: `--repeat K` runs every scene K times, in turn, and ends with each scene's
+ratios and their median.
+Run by hand: `.venv/bin/python bench/bench_bake.py [--resolution N ...] [--gather G] [--scenes ...] [--repeat K]`.
 """
 from __future__ import annotations
 
 import argparse
 import itertools
 import os
+import statistics
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -97,7 +100,9 @@ def embree_alone(scene, rays: RecordedRays) -> tuple[float, float, float]:
     return seconds[False] * scale[False], seconds[True] * scale[True], sum(cpu[k] * scale[k] for k in scale)
 
 
-def run(name: str, settings: BakeSettings, sample: int) -> None:
+def run(name: str, settings: BakeSettings, sample: int) -> tuple[float, float]:
+    """Bake `name` as described above and print the report; returns the ratios bake / embreex
+    in wall-clock and in CPU seconds."""
     scene = load_scene(name)
     bake(scene, BakeSettings(resolution=128, passes=2))  # JIT warm-up, not timed
     start = time.perf_counter()
@@ -129,6 +134,7 @@ def run(name: str, settings: BakeSettings, sample: int) -> None:
           f"bake / embreex = {total / (closest + occlusion):.2f}")
     print(f"CPU seconds: bake {bake_cpu:.1f}, embreex {embree_cpu:.1f}, bake / embreex = {bake_cpu / embree_cpu:.2f} "
           f"(less sensitive to other people's load than the wall-clock ratio)")
+    return total / (closest + occlusion), bake_cpu / embree_cpu
 
 
 def main() -> None:
@@ -137,11 +143,21 @@ def main() -> None:
     parser.add_argument("--sample", type=int, help="record one tracer call in K (default: (N / 512)^2)")
     parser.add_argument("--gather", default="stratified", choices=("stratified", "hemicube"))
     parser.add_argument("--scenes", nargs="+", default=["room", "cornell"])
+    parser.add_argument("--repeat", type=int, default=1, help="runs of every scene, in turn (default 1)")
     args = parser.parse_args()
+    ratios = {}  # (scene, resolution) -> [(wall, cpu) per run]
     for resolution in args.resolution:
-        for name in args.scenes:
-            sample = args.sample or max(1, (resolution // 512) ** 2)
-            run(name, BakeSettings(resolution=resolution, gather=args.gather), sample)
+        sample = args.sample or max(1, (resolution // 512) ** 2)
+        for _ in range(args.repeat):
+            for name in args.scenes:
+                ratio = run(name, BakeSettings(resolution=resolution, gather=args.gather), sample)
+                ratios.setdefault((name, resolution), []).append(ratio)
+    if args.repeat > 1:
+        print("\n== bake / embreex, run by run [median]")
+        for (name, resolution), runs in ratios.items():
+            wall, cpu = zip(*runs)
+            print(f"{name} {resolution}: wall {', '.join(f'{r:.2f}' for r in wall)} [{statistics.median(wall):.2f}]; "
+                  f"CPU {', '.join(f'{r:.2f}' for r in cpu)} [{statistics.median(cpu):.2f}]")
 
 
 if __name__ == "__main__":
