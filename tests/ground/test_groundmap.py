@@ -248,6 +248,17 @@ def test_the_dds_header_gives_the_top_levels_linear_size(width, height, channels
     assert decode_dds_bytes(data).shape == (height, width, 4)          # still what Pillow reads
 
 
+@pytest.mark.parametrize("damage", [
+    lambda data: data[:84] + b"XYZW" + data[88:],  # a pixel format Pillow does not decode
+    lambda data: data[:12] + (10**6).to_bytes(4, "little") * 2 + data[20:],  # 10^6 x 10^6 texels
+    lambda data: data[:100],  # cut inside the header
+])
+def test_a_damaged_dds_file_is_one_clear_error(damage):
+    data, _ = encode_dds(np.zeros((8, 8, 3), np.uint8))
+    with pytest.raises(PatchlightError, match=r"^ground\.dds: (not a readable DDS file|image of)"):
+        decode_dds_bytes(damage(data), "ground.dds")
+
+
 def test_reopening_a_ground_map_directory_gives_exactly_the_written_map(tmp_path):
     """The viewer reads every variant from the files: the map's own PNG and DDS texels, and the
     other encodings' texels exactly as their encoder made them, with their constants."""

@@ -93,7 +93,7 @@ def decode_dds_bytes(data: bytes, where: str = "DDS data") -> np.ndarray:
         with Image.open(io.BytesIO(data)) as img:
             check_image_size(*img.size, 4, where)
             return np.asarray(img.convert("RGBA"))
-    except (OSError, ValueError) as exc:
+    except (OSError, SyntaxError, ValueError, NotImplementedError, Image.DecompressionBombError) as exc:
         raise PatchlightError(f"{where}: not a readable DDS file ({exc})") from exc
 
 
