@@ -31,7 +31,7 @@ them (`scene.model.stacked_uv1`); the readers here stack the files the same way.
 from __future__ import annotations
 
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -210,35 +210,49 @@ def _layers(mode: str) -> tuple[str, ...]:
     return SH_LAYERS if mode == "sh" else ("",)
 
 
-def write_bake(result, out_dir: Path, settings) -> dict:
+def write_bake(result, out_dir: Path, settings, quiet: bool = True) -> dict:
     """Write a bake (patchlight.bake.BakeResult, made with BakeSettings `settings`) into
-    out_dir as one set (module docstring); returns the summary that bake.json holds."""
+    out_dir as one set (module docstring), with a progress bar unless quiet; returns the
+    summary that bake.json holds."""
     from .outputs import staged_output
+    from .progress import Progress
 
-    with staged_output(out_dir, stale=STALE) as staging:
-        return stage_bake(result, staging, out_dir, settings)
+    with staged_output(out_dir, stale=STALE) as staging, Progress(quiet) as progress:
+        return stage_bake(result, staging, out_dir, settings, progress)
 
 
-def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
+def stage_bake(result, staging: Path, out_dir: Path, settings, progress=None) -> dict:
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
-    stale globs include STALE; returns the summary."""
+    stale globs include STALE; returns the summary. texels.npz is written on a thread of its
+    own meanwhile (`outputs.alongside`); progress (patchlight.progress.Progress, or None)
+    shows a "writing" bar, a step per file and per pass in texels.npz."""
+    from .progress import Progress
+
+    progress = progress or Progress(quiet=True)
+    passes = len(result.pass_incident)
+    count = result.scene.atlases
+    files = (count * (1 if result.directional is None else 2) + 4 + (passes if settings.save_passes else 0)
+             + passes + len(fields(Texels)) - 1)  # maps, 2 pictures, scene.glb, bake.json, passes; texels.npz's arrays
+    with progress.stage("writing", total=files) as advance:
+        return _write_set(result, staging, out_dir, settings, advance)
+
+
+def _write_set(result, staging: Path, out_dir: Path, settings, advance) -> dict:
+    """stage_bake's files, advance() after each; texels.npz on a thread of its own."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels
     from .imaging.io import write_exr, write_json, write_png
     from .imaging.lightmap import encode_directional, encode_lightmap, lightmap_scale
+    from .outputs import alongside
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
     count = result.scene.atlases
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
-    images = {LIGHTMAP_PICTURE: exposed_png_pixels(result.lightmap, k),
-              ADAPTIVE_PICTURE: debug_image(result.patches, result.status)}
-    if settings.save_passes:
-        images.update({pass_picture(i): exposed_png_pixels(image, k)
-                       for i, image in enumerate(result.pass_images(), start=1)})
+    passes = [pass_picture(i) for i in range(1, len(result.pass_incident) + 1)] if settings.save_passes else []
     meta = {"quantity": "incident light I (cosine-weighted mean radiance) = texel x scale", "exposure": k}
     lightmaps = atlas_files(LIGHTMAP, count)
     extra = [] if result.directional is None else atlas_files(DIRECTIONAL[result.directional.mode], count)
-    names = sorted([*lightmaps, SCENE, TEXELS, MARKER, *images, *extra])
+    names = sorted([*lightmaps, SCENE, TEXELS, MARKER, LIGHTMAP_PICTURE, ADAPTIVE_PICTURE, *passes, *extra])
     sky = result.scene.sky
     stats = dict(result.stats)
     if "atlases" in stats:
@@ -246,21 +260,33 @@ def stage_bake(result, staging: Path, out_dir: Path, settings) -> dict:
     summary = {"scene": result.scene.source, "settings": settings.to_json(), "exposure": k,
                "sky": None if sky is None else sky.to_json(),
                **stats, "files": names}
-    for file, page, valid in zip(lightmaps, np.split(result.lightmap, count), np.split(result.valid, count)):
-        write_exr(staging / file, page, alpha=valid)
-    if result.directional is not None:
-        write_directional(staging, result.directional, count)
-    write_texels_of(result, staging / TEXELS)
-    for name, pixels in images.items():
-        write_png(staging / name, pixels)
-    scale = lightmap_scale(result.lightmap)  # one scale for every atlas
-    encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
-    directional = None if result.directional is None else [
-        encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)
-        for maps in np.split(result.directional.maps, count, axis=1)]
-    save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
-                   directional=directional)
+
+    def texels(step):  # after each array: stop there if the rest failed, else a step of the bar
+        write_texels_of(result, staging / TEXELS, lambda: (step(), advance()))
+
+    with alongside(texels):
+        for file, page, valid in zip(lightmaps, np.split(result.lightmap, count), np.split(result.valid, count)):
+            write_exr(staging / file, page, alpha=valid)
+            advance()
+        if result.directional is not None:
+            write_directional(staging, result.directional, count)
+            advance(count)
+        write_png(staging / LIGHTMAP_PICTURE, exposed_png_pixels(result.lightmap, k))
+        write_png(staging / ADAPTIVE_PICTURE, debug_image(result.patches, result.status))
+        advance(2)
+        for name, image in zip(passes, result.pass_images()):
+            write_png(staging / name, exposed_png_pixels(image, k))
+            advance()
+        scale = lightmap_scale(result.lightmap)  # one scale for every atlas
+        encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
+        directional = None if result.directional is None else [
+            encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)
+            for maps in np.split(result.directional.maps, count, axis=1)]
+        save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
+                       directional=directional)
+        advance()
     write_json(staging / MARKER, summary)
+    advance()
     return summary
 
 
@@ -290,13 +316,17 @@ class Texels:
         write_texels(path, self.passes, len(self.passes), self.status, self.chart, self.rho, self.emission, self.excident)
 
 
-def write_texels(path: Path, passes, pass_count: int, status, chart, rho, emission, excident) -> None:
+def write_texels(path: Path, passes, pass_count: int, status, chart, rho, emission, excident,
+                 written=None) -> None:
     """Write texels.npz at path: the arrays of the comment above, passes any iterable of
     pass_count (H, W, 3) images (a (P, H, W, 3) array too), each converted and written in
     turn, so a bake's passes never sit in memory as one stack. Deflated at level 1, member by
     member, straight into the file: the room at 2048 x 2048 (19 passes, 0.7 GB of arrays) in
     4.4 s and 161 MB, where NumPy's savez_compressed (level 6, through a buffer of the whole
-    file, the passes stacked) took 10.1 s for 152 MB."""
+    file, the passes stacked) took 10.1 s for 152 MB. written(): called after each pass and
+    each other array (None: nothing), which may raise to stop the writing there."""
+    from .imaging.halves import to_float16
+
     h, w = status.shape
     members = [("passes", np.float16, (pass_count, h, w, 3), passes), ("status", np.int8, (h, w), [status]),
                ("chart", np.int32, (h, w), [chart]), ("rho", np.float32, (h, w, 3), [rho]),
@@ -307,15 +337,18 @@ def write_texels(path: Path, passes, pass_count: int, status, chart, rho, emissi
                 np.lib.format.write_array_header_1_0(member, {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)),
                                                              "fortran_order": False, "shape": shape})
                 for part in parts:
-                    member.write(np.ascontiguousarray(part, dtype).data)
+                    member.write((to_float16(part) if dtype == np.float16 else np.ascontiguousarray(part, dtype)).data)
+                    if written is not None:
+                        written()
 
 
-def write_texels_of(result, path: Path) -> None:
-    """Write texels.npz of a patchlight.bake.BakeResult at path, its passes one at a time."""
+def write_texels_of(result, path: Path, written=None) -> None:
+    """Write texels.npz of a patchlight.bake.BakeResult at path, its passes one at a time;
+    written: as `write_texels`'s."""
     p = result.patches
     write_texels(path, result.pass_images(), len(result.pass_incident), p.to_image(result.status),
                  p.to_image(p.chart, fill=-1), p.to_image(p.rho), p.to_image(p.emission),
-                 p.to_image(result.solution.excident.astype(np.float32)))
+                 p.to_image(result.solution.excident.astype(np.float32)), written)
 
 
 def read_texels(bake_dir: str | Path) -> Texels | None:

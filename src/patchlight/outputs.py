@@ -17,7 +17,8 @@ kernel drops it when its process dies, so no lock outlives a killed run. Holding
 removes the staging folders that killed runs left behind.
 
 Readers that read several files of a folder call `read_consistently`, which re-reads when
-the folder was swapped while they read.
+the folder was swapped while they read. A writer may write its largest file on a thread of
+its own while it writes the others (`alongside`).
 """
 from __future__ import annotations
 
@@ -28,6 +29,8 @@ import os
 import secrets
 import shutil
 import socket
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterator, TypeVar
@@ -201,3 +204,29 @@ def _swapped(folder, before: tuple[int, int]) -> bool:
         return folder_version(folder) != before
     except OSError as exc:
         return exc.errno == errno.ENOENT
+
+
+class _Cancelled(Exception):
+    """Ends a writer run `alongside` a body that failed."""
+
+
+@contextmanager
+def alongside(write: Callable[..., None], *args) -> Iterator[None]:
+    """Run write(*args, step) on a thread of its own while the body runs (zlib, NumPy and the
+    kernels let go of the GIL, so both cores write); its error is raised when the body ends.
+    write calls step() between its steps: once the body has failed (Ctrl-C included), step
+    raises and the write ends there, so the caller's staging folder can go at once."""
+    failed = threading.Event()
+
+    def step() -> None:
+        if failed.is_set():
+            raise _Cancelled
+
+    with ThreadPoolExecutor(1) as pool:
+        future = pool.submit(write, *args, step)
+        try:
+            yield
+            future.result()
+        except BaseException:
+            failed.set()
+            raise

@@ -10,6 +10,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -258,3 +259,40 @@ def test_stale_staging_folders_of_killed_runs_are_removed(tmp_path):
     assert main(["bake", "room", "--resolution", "64", "--quiet", "-o", str(out)]) == 0
     assert not stale.exists() and other.exists()  # another folder's staging is not ours to remove
     shutil.rmtree(other)
+
+
+def test_a_writer_alongside_runs_beside_the_body_and_its_error_comes_at_the_end():
+    """`outputs.alongside`: the writer works on its own thread while the body runs; a writer
+    that fails has its error raised once the body is done."""
+    body_done, seen = [], []
+
+    def writer(step):
+        seen.append(threading.current_thread() is not threading.main_thread())
+        step()
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        with outputs.alongside(writer):
+            body_done.append(True)
+    assert body_done == [True] and seen == [True]
+
+
+def test_a_writer_alongside_a_failing_body_stops_at_its_next_step():
+    """Ctrl-C in the body: the writer ends at its next step, before the body's error leaves
+    the block (the staging folder can go at once), not after all its steps."""
+    steps = []
+
+    def writer(step):
+        for k in range(1000):
+            step()
+            steps.append(k)
+            time.sleep(0.01)
+
+    with pytest.raises(KeyboardInterrupt):
+        with outputs.alongside(writer):
+            while not steps:
+                time.sleep(0.001)
+            raise KeyboardInterrupt
+    done = len(steps)
+    time.sleep(0.05)
+    assert 0 < done < 50 and len(steps) == done  # stopped, and stopped before the block ended

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..imaging.dilate import Dilation
+from ..imaging.halves import to_float32
 from . import _kernels
 from .patches import Patches
 
@@ -55,8 +56,8 @@ class LightmapFill:
 
     def image(self, incident: np.ndarray) -> np.ndarray:
         """(H, W, C) f32 the lightmap of incident (N, C)."""
-        image, _, _ = _kernels.lightmap_texels(self.patches.index, incident.astype(np.float32, copy=False), self.inside,
-                                               self.walled)
+        values = to_float32(incident) if incident.dtype == np.float16 else incident.astype(np.float32, copy=False)
+        image, _, _ = _kernels.lightmap_texels(self.patches.index, values, self.inside, self.walled)
         self.fill.apply(image)
         image.reshape(-1, image.shape[2])[self.black] = 0.0
         self.grow.apply(image)

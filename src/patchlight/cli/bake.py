@@ -104,7 +104,7 @@ def run(args) -> int:
     check_output_dir(args.output)
     scene = load_lit_scene(args)
     result = bake(scene, settings, quiet=args.quiet or args.json)
-    summary = write_bake(result, args.output, settings)
+    summary = write_bake(result, args.output, settings, quiet=args.quiet or args.json)
     if args.json:
         print(json_text(summary, "bake summary"))
     elif not args.quiet:

@@ -8,6 +8,7 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
 from ..atlas.raster import sub_texel_cells, texel_points
+from ..imaging.halves import half_bits
 from ..rays.inside import is_back_face
 from ..rays.tracer import faces_ray
 
@@ -664,29 +665,6 @@ def weighted_emission(seen, tri, dist, dirs, local_dirs, weights, emitting, emis
                 for c in range(3):
                     out[i // d, c] += w * emission[s, c]
     return out
-
-
-HALF_SUBNORMAL_MAGIC = np.float32(0.5)  # 2^-1: added to |x| < 2^-14, rounds it to a multiple of 2^-24, float16's last bit
-
-
-@nb.njit(cache=True, inline="always")
-def half_bits(x):
-    """The bits (u16) of the float16 nearest to the f32 x, ties to even: what NumPy's cast
-    to float16 gives (overflow to inf; a NaN keeps its sign and the top bits of its payload,
-    at least one). Both ways are computed and one picked:
-    normal results round by adding 0xFFF (+1 when the kept mantissa is odd) below the kept
-    13 bits; subnormal ones by the float addition of a power of two that leaves 2^-24 as
-    its last bit."""
-    f = np.int64(np.float32(x).view(np.uint32))
-    sign = (f >> 16) & 0x8000
-    a = f & 0x7FFFFFFF
-    normal = (a - (112 << 23) + 0xFFF + ((a >> 13) & 1)) >> 13  # exponent rebiased from 127 to 15
-    rounded = np.float32(np.uint32(a).view(np.float32) + HALF_SUBNORMAL_MAGIC)  # |x| + 2^-1, added in f32
-    subnormal = np.int64(rounded.view(np.uint32)) - (126 << 23)
-    out = subnormal if a < (113 << 23) else normal
-    if a >= (143 << 23):  # |x| >= 2^16: inf, or NaN
-        out = 0x7C00 | max((a & 0x7FFFFF) >> 13, 1) if a > 0x7F800000 else 0x7C00
-    return np.uint16(sign | out)
 
 
 @nb.njit(cache=True, nogil=True)
