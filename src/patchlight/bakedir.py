@@ -248,11 +248,11 @@ def _write_set(result, staging: Path, out_dir: Path, settings, advance) -> dict:
 
     count = result.scene.atlases
     k = auto_exposure(result.lightmap) if settings.exposure == "auto" else float(settings.exposure)
-    passes = [pass_picture(i) for i in range(1, len(result.pass_incident) + 1)] if settings.save_passes else []
+    pictures = [pass_picture(i) for i in range(1, len(result.pass_incident) + 1)] if settings.save_passes else []
     meta = {"quantity": "incident light I (cosine-weighted mean radiance) = texel x scale", "exposure": k}
     lightmaps = atlas_files(LIGHTMAP, count)
     extra = [] if result.directional is None else atlas_files(DIRECTIONAL[result.directional.mode], count)
-    names = sorted([*lightmaps, SCENE, TEXELS, MARKER, LIGHTMAP_PICTURE, ADAPTIVE_PICTURE, *passes, *extra])
+    names = sorted([*lightmaps, SCENE, TEXELS, MARKER, LIGHTMAP_PICTURE, ADAPTIVE_PICTURE, *pictures, *extra])
     sky = result.scene.sky
     stats = dict(result.stats)
     if "atlases" in stats:
@@ -274,7 +274,7 @@ def _write_set(result, staging: Path, out_dir: Path, settings, advance) -> dict:
         write_png(staging / LIGHTMAP_PICTURE, exposed_png_pixels(result.lightmap, k))
         write_png(staging / ADAPTIVE_PICTURE, debug_image(result.patches, result.status))
         advance(2)
-        for name, image in zip(passes, result.pass_images()):
+        for name, image in zip(pictures, result.pass_images()):
             write_png(staging / name, exposed_png_pixels(image, k))
             advance()
         scale = lightmap_scale(result.lightmap)  # one scale for every atlas
