@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bands import banded
 from .color import LUMINANCE, linear_to_srgb
 
 AUTO_PERCENTILE = 90.0  # auto exposure puts this percentile of the lit values ...
@@ -24,5 +25,5 @@ def expose(values: np.ndarray, k: float) -> np.ndarray:
 
 
 def exposed_png_pixels(values: np.ndarray, k: float) -> np.ndarray:
-    """(H, W, 3) uint8 sRGB picture of linear values exposed with k."""
-    return np.round(linear_to_srgb(expose(values, k)) * 255).astype(np.uint8)
+    """(H, W, 3) uint8 sRGB picture of linear values exposed with k (in bands of rows)."""
+    return banded(lambda rows: np.round(linear_to_srgb(expose(rows, k)) * 255), np.asarray(values), np.uint8)

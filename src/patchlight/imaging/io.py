@@ -36,6 +36,7 @@ from PIL import Image, UnidentifiedImageError
 from ..errors import PatchlightError
 from ..limits import check_image_size
 from . import _kernels
+from .bands import banded
 
 ORIENTATION_KEY = "patchlight.orientation"
 ORIENTATION = "row 0 is v=0 (glTF UV convention)"
@@ -328,7 +329,12 @@ def read_image(path) -> np.ndarray:
 # --------------------------------------------------------------------------- Radiance .hdr
 
 def _float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
-    """(H, W, 3) float -> (H, W, 4) uint8 RGBE, mantissas floored as Radiance does."""
+    """(H, W, 3) float -> (H, W, 4) uint8 RGBE, mantissas floored as Radiance does (in bands
+    of rows)."""
+    return banded(_rgbe_rows, rgb, np.uint8, rgb.shape[:2] + (4,))
+
+
+def _rgbe_rows(rgb: np.ndarray) -> np.ndarray:
     rgb = np.maximum(np.asarray(rgb, np.float64), 0.0)
     peak = rgb.max(axis=-1)
     mantissa, exponent = np.frexp(peak)

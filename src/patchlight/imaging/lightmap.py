@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bands import banded
 from .io import encode_exr, encode_hdr, encode_png
 
 MIN_SCALE = 1e-6  # a black lightmap still gets a positive scale
@@ -39,11 +40,14 @@ class EncodedLightmap:
 def encode_lightmap(lightmap: np.ndarray, scale: float | None = None) -> EncodedLightmap:
     """The two images of an (H, W, 3) float incident-light lightmap (module docstring); scale:
     the one several atlases share (values above it clip in the PNG), else the lightmap's peak."""
-    values = np.maximum(np.asarray(lightmap, np.float64), 0.0)
-    scale = lightmap_scale(values) if scale is None else scale
-    relative = values / scale
-    png = encode_png(np.round(np.clip(relative, 0.0, 1.0) * 255.0).astype(np.uint8))
-    return EncodedLightmap(encode_hdr(relative.astype(np.float32)), png, scale)
+    lightmap = np.asarray(lightmap)
+    scale = lightmap_scale(lightmap) if scale is None else scale
+
+    def relative(rows):
+        return np.maximum(np.asarray(rows, np.float64), 0.0) / scale
+
+    png = encode_png(banded(lambda rows: np.round(np.clip(relative(rows), 0.0, 1.0) * 255.0), lightmap, np.uint8))
+    return EncodedLightmap(encode_hdr(banded(relative, lightmap, np.float32)), png, scale)
 
 
 def lightmap_scale(lightmap: np.ndarray) -> float:

@@ -6,7 +6,8 @@ Embree) plus BYTES_PER_TEXEL per texel of the W x H image (patch arrays, light v
 sampler's plan and state, the passes kept as float16, images and the files' buffers),
 covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the room's 123,
 108 and 99 at 1024, 2048 and 4096, four bytes an entry). Peak minus F was 0.52, 1.42 and
-4.91 GiB at 1024, 2048 and 4096: 256 MiB plus 276, 300 and 298 bytes a texel. Direct light
+4.91 GiB at 1024, 2048 and 4096: 256 MiB plus 276, 300 and 298 bytes a texel (the
+writing, since in bands beside texels.npz, less: 4.52 GiB at 4096). Direct light
 works chunk by chunk, so its points per texel cost nothing per texel, and texels.npz is
 written pass by pass. The time is CPU seconds per texel over the cores, 21 microseconds
 each: a bound that errs long (the room at 4096 takes 183-198 CPU seconds for 16.8 M
