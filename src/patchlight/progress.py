@@ -65,7 +65,8 @@ class Progress:
 
     @contextmanager
     def stage(self, name: str, total: float | None = None):
-        """Time a stage; yields advance(n=1, note="") to move its bar."""
+        """Time a stage; yields advance(n=1, note="") to move its bar. A stage that fails
+        takes its bar away: the error line that follows says what happened, alone."""
         check_stop()
         task = None
         if self._bar is not None:
@@ -83,6 +84,10 @@ class Progress:
             if task is not None:  # a finished stage shows full, however many it skipped
                 total = self._bar.tasks[task].total or 1
                 self._bar.update(task, completed=total, total=total)
+        except BaseException:
+            if task is not None:
+                self._bar.remove_task(task)
+            raise
         finally:
             self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
             self.cpu_seconds[name] = self.cpu_seconds.get(name, 0.0) + _cpu_seconds() - cpu

@@ -107,9 +107,11 @@ def run(args) -> int:
         result = bake(scene, bake_settings, quiet=args.quiet or args.json)
         solved = SolvedScene.from_bake(result, str(args.scene))
         made, bake_dir = (result, bake_settings), None
-    ground_map = make_groundmap(solved, settings, plan)  # may refuse the area: one line, no bar before it
-    with Progress(args.quiet or args.json) as progress, progress.stage("writing"):
-        manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir, bake=made)
+    with Progress(args.quiet or args.json) as progress:
+        with progress.stage("ground map"):
+            ground_map = make_groundmap(solved, settings, plan)
+        with progress.stage("writing"):
+            manifest = write_groundmap(ground_map, args.output, str(args.scene), bake_dir, bake=made)
     if args.json:
         json.dump(json.loads((args.output / "groundmap.json").read_text()), sys.stdout, indent=2)
         print()
