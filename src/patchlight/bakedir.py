@@ -225,24 +225,12 @@ def stage_bake(result, staging: Path, out_dir: Path, settings, progress=None) ->
     """Write a bake's files into the staging directory of a `staged_output` into out_dir whose
     stale globs include STALE; returns the summary. texels.npz is written on a thread of its
     own meanwhile (`outputs.alongside`); progress (patchlight.progress.Progress, or None)
-    shows a "writing" bar, a step per file and per pass in texels.npz."""
-    from .progress import Progress
-
-    progress = progress or Progress(quiet=True)
-    passes = len(result.pass_incident)
-    count = result.scene.atlases
-    files = (count * (1 if result.directional is None else 2) + 4 + (passes if settings.save_passes else 0)
-             + passes + len(fields(Texels)) - 1)  # maps, 2 pictures, scene.glb, bake.json, passes; texels.npz's arrays
-    with progress.stage("writing", total=files) as advance:
-        return _write_set(result, staging, out_dir, settings, advance)
-
-
-def _write_set(result, staging: Path, out_dir: Path, settings, advance) -> dict:
-    """stage_bake's files, advance() after each; texels.npz on a thread of its own."""
+    shows a "writing" bar, a step per file and per pass and array of texels.npz."""
     from .imaging.exposure import auto_exposure, exposed_png_pixels
     from .imaging.io import write_exr, write_json, write_png
     from .imaging.lightmap import encode_directional, encode_lightmap, lightmap_scale
     from .outputs import alongside
+    from .progress import Progress
     from .radiosity.adaptive import debug_image
     from .scene.gltf import save_baked_glb
 
@@ -264,29 +252,31 @@ def _write_set(result, staging: Path, out_dir: Path, settings, advance) -> dict:
     def texels(step):  # after each array: stop there if the rest failed, else a step of the bar
         write_texels_of(result, staging / TEXELS, lambda: (step(), advance()))
 
-    with alongside(texels):
-        for file, page, valid in zip(lightmaps, np.split(result.lightmap, count), np.split(result.valid, count)):
-            write_exr(staging / file, page, alpha=valid)
+    steps = len(names) - 1 + len(result.pass_incident) + len(fields(Texels)) - 1  # texels.npz by its arrays
+    with (progress or Progress(quiet=True)).stage("writing", total=steps) as advance:
+        with alongside(texels):
+            for file, page, valid in zip(lightmaps, np.split(result.lightmap, count), np.split(result.valid, count)):
+                write_exr(staging / file, page, alpha=valid)
+                advance()
+            if result.directional is not None:
+                write_directional(staging, result.directional, count)
+                advance(count)
+            write_png(staging / LIGHTMAP_PICTURE, exposed_png_pixels(result.lightmap, k))
+            write_png(staging / ADAPTIVE_PICTURE, debug_image(result.patches, result.status))
+            advance(2)
+            for name, image in zip(pictures, result.pass_images()):
+                write_png(staging / name, exposed_png_pixels(image, k))
+                advance()
+            scale = lightmap_scale(result.lightmap)  # one scale for every atlas
+            encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
+            directional = None if result.directional is None else [
+                encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)
+                for maps in np.split(result.directional.maps, count, axis=1)]
+            save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
+                           directional=directional)
             advance()
-        if result.directional is not None:
-            write_directional(staging, result.directional, count)
-            advance(count)
-        write_png(staging / LIGHTMAP_PICTURE, exposed_png_pixels(result.lightmap, k))
-        write_png(staging / ADAPTIVE_PICTURE, debug_image(result.patches, result.status))
-        advance(2)
-        for name, image in zip(pictures, result.pass_images()):
-            write_png(staging / name, exposed_png_pixels(image, k))
-            advance()
-        scale = lightmap_scale(result.lightmap)  # one scale for every atlas
-        encoded = [encode_lightmap(page, scale) for page in np.split(result.lightmap, count)]
-        directional = None if result.directional is None else [
-            encode_directional(result.directional.mode, dict(zip(_layers(result.directional.mode), maps)), scale)
-            for maps in np.split(result.directional.maps, count, axis=1)]
-        save_baked_glb(result.scene, staging / SCENE, encoded[0] if count == 1 else encoded, meta, folder=out_dir,
-                       directional=directional)
+        write_json(staging / MARKER, summary)  # once texels.npz is whole too
         advance()
-    write_json(staging / MARKER, summary)
-    advance()
     return summary
 
 
