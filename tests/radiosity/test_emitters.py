@@ -231,10 +231,10 @@ def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
         np.testing.assert_array_equal(t, table[:, expected])
 
 
-def test_the_unblocked_rays_sums_are_added_texel_by_texel_in_order():
+def test_the_unblocked_rays_sums_are_written_texel_by_texel_in_order():
     """unblocked_sums against a plain loop: each texel's unblocked values added in ray order
-    onto what out held, texels without rays or with every ray blocked left as they were, and
-    no ray at all changes nothing."""
+    from 0, over whatever out held; texels without rays or with every ray blocked get 0, and
+    so does every texel when there is no ray at all."""
     from patchlight.radiosity._kernels import unblocked_sums
 
     rng = np.random.default_rng(12)
@@ -244,11 +244,11 @@ def test_the_unblocked_rays_sums_are_added_texel_by_texel_in_order():
         value = (rng.random((len(ray), 3)) * 10.0 ** rng.uniform(-5, 5, (len(ray), 1))).astype(np.float32)
         blocked = rng.random(len(ray)) < 0.3
         out = rng.random((texels, 3), dtype=np.float32)
-        expected = out.copy()
+        expected = np.zeros_like(out)
         for q in np.flatnonzero(~blocked):
             expected[ray[q] // k] += value[q]
         unblocked_sums(value, ray, blocked, k, out)
         np.testing.assert_array_equal(out, expected)
     out = np.ones((2, 3), np.float32)
     unblocked_sums(np.zeros((0, 3), np.float32), np.zeros(0, np.int64), np.zeros(0, bool), k, out)
-    np.testing.assert_array_equal(out, 1.0)
+    np.testing.assert_array_equal(out, 0.0)

@@ -485,11 +485,15 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
 
 @nb.njit(cache=True, nogil=True)
 def unblocked_sums(value, ray, blocked, k, out):
-    """Add into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
+    """Write into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
     emitter_rays' rays `ray` (L,) (sample ids r * k + j, ascending) but those `blocked` (L,)
-    (their shadow ray met something). A texel's sums are kept in registers, and a blocked
-    ray adds its value times 0: no branch on the shadow rays' random outcome, and the same
-    sums, the values being finite and not negative (light)."""
+    (their shadow ray met something), 0 for a texel without any. A texel's sums are kept in
+    registers, and a blocked ray adds its value times 0: no branch on the shadow rays'
+    random outcome, and the same sums, the values being finite and not negative (light).
+    out is zeroed here, written before it is read: np.zeros' fresh pages, read first, map
+    the kernel's shared zero page, and each first write then costs a copy-on-write fault
+    that flushes every core's TLB (on the VM measured, 0.75 ms a page)."""
+    out[:] = 0.0
     if ray.shape[0] == 0:
         return
     r, end = 0, k  # the texel of ray q, and its samples' end: no division per ray

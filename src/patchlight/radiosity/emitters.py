@@ -99,7 +99,7 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
     one shadow ray from each point of a side x side grid over the texel (`points`, made by
     the kernel texel by texel, chunks of texels on the tracer's threads); lift
     (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
-    out = np.zeros((len(patches), 3), np.float32)
+    out = np.empty((len(patches), 3), np.float32)  # each chunk's rows written by unblocked_sums
 
     def chunk(first, last):
         rows = np.arange(first, last, dtype=np.int64)

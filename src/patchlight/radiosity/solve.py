@@ -156,10 +156,12 @@ class PanelBlock:
 
 def _small_paged(count: int, dtype) -> np.ndarray:
     """(count,) of dtype, uninitialised, in an anonymous mapping of its own: 4 KiB pages,
-    where NumPy asks for huge pages for every array of 4 MiB or more. F's blocks are written
-    once, then read in order, so huge pages spare them no TLB misses; and a huge page new to
-    the process costs more to fault in than its 512 small ones (on a VM measured here: the
-    room at 2048, 450 MB of F, 1.05-1.28 -> 0.38-0.64 system CPU s in the gather)."""
+    where NumPy asks for huge pages for every array of 4 MiB or more. For what the bake
+    writes once and keeps, read in order: F's blocks and the passes' float16 records. Huge
+    pages spare them no TLB misses, and a huge page new to the process costs more to fault
+    in than its 512 small ones (on a VM measured here, system CPU s: the room at 2048, 450
+    MB of F, 1.05-1.28 -> 0.38-0.64 in the gather; the Cornell box at 2048, 18 records of
+    17 MB, 0.49-0.57 -> 0.18 in the passes)."""
     if count == 0:
         return np.empty(0, dtype)
     return np.frombuffer(mmap.mmap(-1, count * np.dtype(dtype).itemsize), dtype)
@@ -249,7 +251,7 @@ def solve(ff: FormFactors, direct: np.ndarray, rho: np.ndarray, emission: np.nda
     for k in range(1, passes + 1):
         I, previous = previous, I  # this pass writes over the one before the last
         gathered_light(ff, reflected if warm or k > 1 else None, status, order, G)  # B = E: F (B - E) = 0
-        half = np.empty(I.shape, np.float16) if on_pass is not None else np.zeros((0, 3), np.float16)
+        half = (_small_paged(I.size, np.float16) if on_pass is not None else np.zeros(0, np.float16)).reshape(-1, 3)
         bits = half.view(np.uint16)
         spread(lambda a, b: _kernels.pass_light(
             direct[a:b], G[a:b], inside[a:b], rho[a:b], emission[a:b], I[a:b], reflected[a:b], bits[a:b]), 0, len(I))
