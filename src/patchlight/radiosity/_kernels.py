@@ -855,6 +855,18 @@ def zero_where(G, status, code):
 
 
 @nb.njit(cache=True, nogil=True)
+def ray_offsets(position, size, reach, floor):
+    """(N,) f32 max(0.05 size, reach x the largest |coordinate| of position + floor) per
+    patch, position (N, 3) and size (N,) f32, in float32 as NumPy's whole-array operations
+    round them, without their temporaries (at 2048 x 2048, fresh pages that took 0.13 s)."""
+    out = np.empty(size.shape[0], np.float32)
+    for i in range(size.shape[0]):
+        largest = max(max(abs(position[i, 0]), abs(position[i, 1])), abs(position[i, 2]))
+        out[i] = max(np.float32(0.05) * size[i], reach * largest + floor)
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def sky_directions(seen, dirs):
     """(K, 3) f32 the directions (of dirs (R * D, 3)) of the K rays that see the sky, in ray
     order: `dirs[seen == SKY]` in one pass and no mask."""

@@ -34,10 +34,8 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
     less than float32's reach where the patch lies (FLOAT32_REACH of its largest coordinate,
     over a hundred float32 steps, plus a millionth of the scene's size)."""
     lo, hi = scene.bounds()
-    largest = np.maximum(np.maximum(np.abs(patches.position[:, 0]), np.abs(patches.position[:, 1])),
-                         np.abs(patches.position[:, 2]))
-    reach = FLOAT32_REACH * largest + 1e-6 * float(np.max(hi - lo))
-    return np.maximum(0.05 * patches.size, reach).astype(np.float32)
+    return _kernels.ray_offsets(patches.position, patches.size, np.float32(FLOAT32_REACH),
+                                np.float32(1e-6 * float(np.max(hi - lo))))
 
 
 @dataclass
