@@ -71,6 +71,28 @@ def _prefetch(typingctx, array, i):
     return types.void(array, i), codegen
 
 
+@intrinsic
+def _void_pointer(typingctx, address):
+    """An int64 address (`address_table`) as a void pointer, for nb.carray."""
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+    return types.voidptr(types.int64), codegen
+
+
+def address_table(arrays: list[np.ndarray]) -> np.ndarray:
+    """(2, K) int64: the address and the length of each of K 1-d C-contiguous arrays, which a
+    kernel views again with nb.carray(_void_pointer(...)): how a kernel takes a list of arrays
+    without numba's typed List, whose own functions numba compiles anew in every process
+    (0.8 s at each start) where these kernels load from its cache. The caller keeps the
+    arrays alive until the kernel returns."""
+    table = np.zeros((2, len(arrays)), np.int64)
+    for k, array in enumerate(arrays):
+        if array.ndim != 1 or not array.flags.c_contiguous:
+            raise ValueError("address_table takes 1-d C-contiguous arrays")
+        table[0, k], table[1, k] = array.ctypes.data, len(array)
+    return table
+
+
 TEXEL_BLOCK = 32  # texels per word of a texel-rank table (coverage bits below, rank above)
 
 
@@ -1034,22 +1056,23 @@ def item_buffer_times(seen, weights, B):
 def panel_in_column_order(p, piece_starts, first_rows, pieces, entries, weights):
     """Write column panel p of a block from its pieces (`item_buffer_rows`' rows, one piece
     after the other: piece_starts (K, panels + 1) int64, first_rows (K,) int64 the block's
-    row of each piece's first, pieces a typed List of their K entry words) in column order,
+    row of each piece's first, pieces the `address_table` of their K u64 entry words) in column order,
     rows ascending within a column, into entries (u32: column within the panel << 16 | row)
     and, unless it is empty (a uniform block), weights (f32): the block's panel p. A stable
     counting sort by column of the pieces' panel-p words, taken piece by piece in row order,
     through a histogram the size of the panel. The words are sorted whole (one scattered
     write each, not two), then split in order."""
     at = np.zeros((1 << PANEL_BITS) + 1, np.uint32)  # unsigned indices spare numba's negative-index checks
-    for k in range(len(pieces)):
-        words = pieces[k]
+    for k in range(pieces.shape[1]):
+        words = nb.carray(_void_pointer(pieces[0, k]), pieces[1, k], np.uint64)
         for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
             at[((words[i] >> np.uint64(16)) & np.uint64(0xFFFF)) + np.uint64(1)] += 1
     for c in range(1 << PANEL_BITS):
         at[c + 1] += at[c]
     sorted_words = np.empty(entries.shape[0] if weights.shape[0] else 0, np.uint64)
-    for k in range(len(pieces)):
-        words, first_row = pieces[k], np.uint64(first_rows[k])
+    for k in range(pieces.shape[1]):
+        words = nb.carray(_void_pointer(pieces[0, k]), pieces[1, k], np.uint64)
+        first_row = np.uint64(first_rows[k])
         for i in range(np.uint64(piece_starts[k, p]), np.uint64(piece_starts[k, p + 1])):
             c = (words[i] >> np.uint64(16)) & np.uint64(0xFFFF)
             j = at[c]
@@ -1066,9 +1089,9 @@ def panel_in_column_order(p, piece_starts, first_rows, pieces, entries, weights)
 
 @nb.njit(cache=True, nogil=True)
 def blocks_times_rgb(starts, entries, weights, units, row_counts, B):
-    """(sum of row_counts, 3) f32: consecutive panel-major blocks of F (typed Lists, an item
-    a block: starts, entries u32 column << 16 | row, weights f32 or, uniform, none: each
-    entry weighs units[g]; row_counts (G,) int64) times B (N, 3) f32 C-contiguous, their rows
+    """(sum of row_counts, 3) f32: consecutive panel-major blocks of F (`address_table`s of G
+    arrays, one a block: starts int64, entries u32 column << 16 | row, weights f32 or,
+    uniform, none: each entry weighs units[g]; row_counts (G,) int64) times B (N, 3) f32 C-contiguous, their rows
     one after the other, on the calling thread. Panel by panel across the blocks, so each
     panel's 2^16-row slice of B comes from memory once for all of them and from the caches for
     the rest (block by block, each block read all of B: a fifth more CPU time); a block's sums
@@ -1084,10 +1107,13 @@ def blocks_times_rgb(starts, entries, weights, units, row_counts, B):
         first_rows[g + 1] = first_rows[g] + row_counts[g]
     out = np.zeros((first_rows[-1], 4), np.float32)
     sums, b = out.reshape(-1), B.reshape(-1)
-    for p in range(starts[0].shape[0] - 1):
+    for p in range(starts[1, 0] - 1):
         base = np.uint64(p << PANEL_BITS)
-        for g in range(len(starts)):
-            at, block, w, row0 = starts[g], entries[g], weights[g], np.uint64(first_rows[g])
+        for g in range(starts.shape[1]):
+            at = nb.carray(_void_pointer(starts[0, g]), starts[1, g], np.int64)
+            block = nb.carray(_void_pointer(entries[0, g]), entries[1, g], np.uint32)
+            w = nb.carray(_void_pointer(weights[0, g]), weights[1, g], np.float32)
+            row0 = np.uint64(first_rows[g])
             if w.shape[0]:
                 for k in range(np.uint64(at[p]), np.uint64(at[p + 1])):
                     _add_scaled_rgb(sums, row0 + np.uint64(block[k] & np.uint32(0xFFFF)), w[k], b,
@@ -1096,8 +1122,8 @@ def blocks_times_rgb(starts, entries, weights, units, row_counts, B):
                 for k in range(np.uint64(at[p]), np.uint64(at[p + 1])):
                     _add_scaled_rgb(sums, row0 + np.uint64(block[k] & np.uint32(0xFFFF)), np.float32(1.0), b,
                                     base + np.uint64(block[k] >> np.uint32(16)))
-    for g in range(len(starts)):
-        if weights[g].shape[0] == 0:
+    for g in range(starts.shape[1]):
+        if weights[1, g] == 0:
             for r in range(first_rows[g], first_rows[g + 1]):
                 for c in range(3):
                     out[r, c] *= units[g]

@@ -11,7 +11,6 @@ import mmap
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba.typed import List
 
 from . import _kernels, adaptive
 from .gather import Gatherer, PanelRows
@@ -134,11 +133,12 @@ class PanelBlock:
         piece_starts = np.stack([piece.starts for piece in pieces])
         starts = piece_starts.sum(axis=0)  # each panel starts where it starts in the pieces together
         first_rows = np.cumsum([0] + [piece.n_rows for piece in pieces[:-1]])
-        words = List([piece.entries for piece in pieces])
-        pieces.clear()  # the list keeps the pieces' words until the block is made, no longer
+        words = [piece.entries for piece in pieces]  # kept until the block is made, no longer
+        table = _kernels.address_table(words)
+        pieces.clear()
         nnz = int(starts[-1])
         entries, weights = _small_paged(nnz, np.uint32), _small_paged(0 if unit is not None else nnz, np.float32)
-        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, words, entries[starts[p]:starts[p + 1]],
+        run(lambda p: _kernels.panel_in_column_order(p, piece_starts, first_rows, table, entries[starts[p]:starts[p + 1]],
                                                      weights[starts[p]:starts[p + 1]]), list(range(len(starts) - 1)))
         return cls(starts, entries, weights, unit_f32, n_rows)
 
@@ -170,11 +170,14 @@ def _small_paged(count: int, dtype) -> np.ndarray:
 
 class BlockRun:
     """Consecutive blocks of F that one task multiplies by B, panel by panel across the blocks
-    (`_kernels.blocks_times_rgb`), their arrays put in numba lists once for every product."""
+    (`_kernels.blocks_times_rgb`), their arrays' address tables made once for every product
+    (the run keeps the blocks, so their arrays outlive every call)."""
 
     def __init__(self, blocks: list[PanelBlock]):
-        self._lists = (List([b.starts for b in blocks]), List([b.entries for b in blocks]),
-                       List([b.weights for b in blocks]), np.float32([b.unit for b in blocks]),
+        self._blocks = blocks
+        self._lists = (*(_kernels.address_table([getattr(b, name) for b in blocks])
+                         for name in ("starts", "entries", "weights")),
+                       np.float32([b.unit for b in blocks]),
                        np.array([b.n_rows for b in blocks], np.int64)) if blocks else None
 
     def times(self, B: np.ndarray) -> np.ndarray:
