@@ -7,8 +7,10 @@ both call `bake`.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
+
 import numpy as np
 
 from .atlas.lightmap import LightmapFill, denoised_incident, fill_lightmap, stitch_seams, valid_texels
@@ -21,7 +23,7 @@ from .radiosity import adaptive
 from .radiosity.direct import texel_direct_light
 from .radiosity.directional import add_direct, add_emitters, gather_directions, split_maps
 from .radiosity.emitters import emitter_light, find_emitters, samples_per_texel
-from .radiosity.gather import Gatherer
+from .radiosity.gather import Gatherer, load_first_kernel
 from .radiosity.memory import (check_bake_memory, estimate_peak_bytes, estimate_seconds, form_factor_budget,
                                peak_resident_bytes)
 from .radiosity.sampling import gather_adaptive, walled_inside
@@ -98,6 +100,15 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
     return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
 
 
+def _load_jit() -> None:
+    """`load_first_kernel` on a thread while the UVs are made (the main thread only waits for
+    xatlas's child then); the bake's own call of that kernel raises whatever this one meets."""
+    try:
+        load_first_kernel()
+    except Exception:
+        pass
+
+
 def _join_cluster(address: str | None):
     """The Ray cluster the gather runs on (joined before any work, so a bad address costs
     nothing), or None: the gather runs here."""
@@ -123,9 +134,12 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
+            loading = threading.Thread(target=_load_jit, daemon=True)
+            loading.start()
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding, densities=settings.density, max_atlas=settings.max_atlas)
+            loading.join()
         check_bake_memory(width, height, available)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)

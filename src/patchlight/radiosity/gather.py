@@ -38,6 +38,13 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
                                 np.float32(1e-6 * float(np.max(hi - lo))))
 
 
+def load_first_kernel() -> None:
+    """Load `ray_offsets`' kernel from numba's cache as a bake will call it: a process's first
+    kernel starts numba's code generator, 0.2 s, which a bake pays on a thread while it waits
+    for the UVs."""
+    _kernels.ray_offsets(np.zeros((1, 3), np.float32), np.ones(1, np.float32), np.float32(0), np.float32(0))
+
+
 @dataclass
 class PanelRows:
     """Consecutive rows of F, one chunk's (`_kernels.item_buffer_rows`), column panel by column
