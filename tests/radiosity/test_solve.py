@@ -49,6 +49,22 @@ def _pieces(n_cols, cuts, uniform=False, rays=24, seed=3):
     return pieces, weights, np.nonzero(hit)[0], seen[hit], np.broadcast_to(weights, seen.shape)[hit]
 
 
+def test_an_address_table_names_each_array_and_refuses_what_a_kernel_cannot_view():
+    """address_table: each array's address and length, in order (an empty one too); an array
+    of two dimensions or with strides is refused, not viewed wrongly."""
+    import numpy as np
+
+    from patchlight.radiosity._kernels import address_table
+
+    arrays = [np.arange(5, dtype=np.uint32), np.zeros(0, np.float32), np.ones(3)]
+    table = address_table(arrays)
+    assert table.dtype == np.int64 and table.shape == (2, 3)
+    assert list(table[0]) == [a.ctypes.data for a in arrays] and list(table[1]) == [5, 0, 3]
+    for bad in (np.zeros((3, 2)), np.arange(10)[::2]):
+        with pytest.raises(ValueError, match="1-d C-contiguous"):
+            address_table([bad])
+
+
 @pytest.mark.parametrize("uniform", [False, True])
 @pytest.mark.parametrize("n_cols", [1000, 65536, 3 * 65536 + 17])  # one column panel, one and an empty one, four
 def test_a_panel_block_holds_its_rows_panel_by_panel_in_column_order(n_cols, uniform):

@@ -83,7 +83,7 @@ def address_table(arrays: list[np.ndarray]) -> np.ndarray:
     """(2, K) int64: the address and the length of each of K 1-d C-contiguous arrays, which a
     kernel views again with nb.carray(_void_pointer(...)): how a kernel takes a list of arrays
     without numba's typed List, whose own functions numba compiles anew in every process
-    (0.8 s at each start) where these kernels load from its cache. The caller keeps the
+    (0.65 s at each start) where these kernels load from its cache. The caller keeps the
     arrays alive until the kernel returns."""
     table = np.zeros((2, len(arrays)), np.int64)
     for k, array in enumerate(arrays):

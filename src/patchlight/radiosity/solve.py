@@ -160,8 +160,8 @@ def _small_paged(count: int, dtype) -> np.ndarray:
     writes once and keeps, read in order: F's blocks and the passes' float16 records. Huge
     pages spare them no TLB misses, and a huge page new to the process costs more to fault
     in than its 512 small ones (on a VM measured here, system CPU s: the room at 2048, 450
-    MB of F, 1.05-1.28 -> 0.38-0.64 in the gather; the Cornell box at 2048, 18 records of
-    17 MB, 0.49-0.57 -> 0.18 in the passes)."""
+    MB of F, 1.05-1.28 -> 0.38-0.64 in the gather; the passes' records at 2048, 0.48-0.65
+    -> 0.11-0.12 in the Cornell box's passes, 0.83-0.90 -> 0.61-0.70 in the room's)."""
     if count == 0:
         return np.empty(0, dtype)
     private = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS  # mmap's default, MAP_SHARED, is shared memory: twice the cost
