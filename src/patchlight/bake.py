@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .atlas.lightmap import LightmapFill, denoised_incident, fill_lightmap, stitch_seams, valid_texels
+from .atlas.lightmap import LightmapFill, denoised_incident, stitch_seams, valid_texels
 from .atlas.patches import Patches
 from .config import BakeSettings
 from .errors import PatchlightError
@@ -35,7 +35,8 @@ from .shading.directional import DirectionalLightmap
 @dataclass
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
-    solution, the (possibly re-indexed) scene with its lightmap UVs, stats for bake.json,
+    solution, fill: how the patches' values became the lightmap (for the passes' images),
+    the (possibly re-indexed) scene with its lightmap UVs, stats for bake.json,
     pass_incident: each pass's incident light (N, 3) float16, walled (N,) bool: the inside
     texels left dark (`walled_inside`), and directional: the directional lightmap
     (`BakeSettings.directional`) or None."""
@@ -45,6 +46,7 @@ class BakeResult:
     lightmap: np.ndarray
     status: np.ndarray
     solution: Solution
+    fill: LightmapFill
     stats: dict = field(default_factory=dict)
     pass_incident: list = field(default_factory=list)
     walled: np.ndarray | None = None
@@ -53,8 +55,7 @@ class BakeResult:
     def pass_images(self):
         """Each pass's lightmap (H, W, 3) f32, filled and dilated as `lightmap` is, one at a
         time (a generator: a large lightmap's passes never sit in memory at full precision)."""
-        fill = LightmapFill.of(self.patches, self.status == adaptive.INSIDE, self.walled)
-        return (fill.image(I) for I in self.pass_incident)
+        return (self.fill.image(I) for I in self.pass_incident)
 
     @property
     def valid(self) -> np.ndarray:
@@ -84,11 +85,11 @@ def _texels_per_atlas(patches: Patches, atlases: dict) -> list[int]:
     return np.bincount(rows, minlength=atlases["count"]).tolist()
 
 
-def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarray, walled: np.ndarray,
-                       gatherer: Gatherer, solution: Solution, per_light: list[np.ndarray], rows: np.ndarray,
-                       mode: str, advance) -> np.ndarray:
+def directional_images(scene: Scene, patches: Patches, points, fill: LightmapFill, gatherer: Gatherer,
+                       solution: Solution, per_light: list[np.ndarray], rows: np.ndarray, mode: str,
+                       advance) -> np.ndarray:
     """(H, W, C) the directional maps' values (radiosity/directional.py) of patches `rows`,
-    filled as the lightmap is; points: the direct stage's atlas.raster.TexelPoints."""
+    filled as the lightmap is (`fill`); points: the direct stage's atlas.raster.TexelPoints."""
     sampled = gatherer.emitters is not None and gatherer.nee_samples > 0
     seen = solution.reflected if sampled else solution.excident
     sums = gather_directions(gatherer, seen, rows, advance)
@@ -97,7 +98,7 @@ def directional_images(scene: Scene, patches: Patches, points, inside: np.ndarra
         side = math.isqrt(gatherer.nee_samples)
         add_emitters(sums, gatherer.emitters, patches, gatherer.tri_uv1, points, side, gatherer.offset,
                      gatherer.tracer, gatherer.seed)
-    return fill_lightmap(patches, sums.lightmap_values(mode), inside, walled)
+    return fill.image(sums.lightmap_values(mode))
 
 
 def _load_jit() -> None:
@@ -191,13 +192,14 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             incident = solution.incident
             if settings.denoise:
                 incident = denoised_incident(patches, direct, solution.gathered, inside)
-            lightmap = fill_lightmap(patches, incident, inside, walled)
+            fill = LightmapFill.of(patches, inside, walled)
+            lightmap = fill.image(incident)
         images = [lightmap]
         if settings.directional:
             valid = np.flatnonzero(~inside)
             with progress.stage("directional", total=len(valid)) as advance:
-                images.append(directional_images(scene, patches, points, inside, walled, gatherer, solution,
-                                                 per_light, valid, settings.directional, advance))
+                images.append(directional_images(scene, patches, points, fill, gatherer, solution, per_light,
+                                                 valid, settings.directional, advance))
         seams = None
         if settings.stitch:
             with progress.stage("seams"):
@@ -240,4 +242,4 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
-    return BakeResult(scene, patches, lightmap, status, solution, stats, pass_incident, walled, directional)
+    return BakeResult(scene, patches, lightmap, status, solution, fill, stats, pass_incident, walled, directional)

@@ -21,23 +21,17 @@ def valid_texels(patches: Patches, inside: np.ndarray) -> np.ndarray:
     return _kernels.texels_covered_and_not(patches.index, inside)
 
 
-def fill_lightmap(patches: Patches, incident: np.ndarray, inside: np.ndarray,
-                  walled: np.ndarray | None = None) -> np.ndarray:
-    """(H, W, C) lightmap of incident (N, C): texels of patches inside geometry (inside (N,)
-    bool) next to valid ones filled from them (up to DILATE_TEXELS rings deep, so bilinear
-    filtering at a joint reads no darkness; deeper ones stay black), but never the walled
-    ones (walled (N,) bool, radiosity.sampling.walled_inside: the foot of a wall thinner than
-    a texel, which would carry one side's light to the other), then grown past chart borders
-    by DILATE_TEXELS rings. Many lightmaps of the same texels: `LightmapFill`."""
-    return LightmapFill.of(patches, inside, walled).image(incident)
-
-
 @dataclass
 class LightmapFill:
-    """`fill_lightmap` worked out once for a bake's texels, which depends on where patches lie,
-    not on their light: the fill of texels inside geometry (`Dilation`), the texels left black,
-    the growth past chart borders; `image` then makes each lightmap (a bake's passes: the
-    room's 19 at 2048 in 1.4 s, not 3.3 s, the same bits)."""
+    """How a bake's per-patch values become lightmap images, worked out once for its texels (it
+    depends on where patches lie, not on their light): texels of patches inside geometry
+    (inside (N,) bool) next to valid ones filled from them (`Dilation`, up to DILATE_TEXELS
+    rings deep, so bilinear filtering at a joint reads no darkness; deeper ones stay black),
+    but never the walled ones (walled (N,) bool, radiosity.sampling.walled_inside: the foot of
+    a wall thinner than a texel, which would carry one side's light to the other), then the
+    charts grown past their borders by DILATE_TEXELS rings. `image` makes each lightmap: the
+    bake's, its directional maps and its passes (the room's 19 at 2048 in 1.4 s, not 3.3 s,
+    the same bits)."""
 
     patches: Patches
     inside: np.ndarray
