@@ -1,9 +1,9 @@
-"""The ray tracer: Intel Embree (through embreex) behind one small interface.
+"""The ray tracer: Intel Embree (`embree.TriangleBvh`) behind one small interface.
 
-embreex traces each ray with the GIL released, so large batches are split into chunks
-that the calling thread and a pool share (`Tracer.map`): every core works. Embree takes
-float32 only and starts every ray at t = 0: callers offset their origins off the surface
-themselves.
+Embree traces in numba kernels with the GIL released, so large batches are split into
+chunks that the calling thread and a pool share (`Tracer.map`): every core works. Embree
+takes float32 only and starts every ray at t = 0: callers offset their origins off the
+surface themselves.
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import PatchlightError
+from .embree import TriangleBvh
 
 CHUNK = 65536  # rays per task: large enough to amortise the call, small enough to balance 2 cores
 TASK_ROWS = 1 << 16  # the most rows of a sweep one task takes (`spans`)
@@ -121,7 +122,7 @@ class Tracer:
             raise PatchlightError("cannot trace rays against a scene with no triangles")
         self.positions = np.ascontiguousarray(positions, np.float32)
         self.indices = np.ascontiguousarray(indices, np.int32)
-        self._scene = None
+        self._bvh = None
         self._pool = None
         self.rays_traced = 0
         self._count_lock = threading.Lock()  # chunks finish on several threads
@@ -134,15 +135,11 @@ class Tracer:
         """Pickles as its triangles; the BVH is rebuilt where it is first used (a Ray worker)."""
         return Tracer, (self.positions, self.indices)
 
-    def _ready(self):
-        if self._scene is None:
-            from embreex import rtcore_scene
-            from embreex.mesh_construction import TriangleMesh
-
-            self._scene = rtcore_scene.EmbreeScene()
-            self._mesh = TriangleMesh(self._scene, self.positions, self.indices)
+    def _ready(self) -> TriangleBvh:
+        if self._bvh is None:
+            self._bvh = TriangleBvh(self.positions, self.indices)
             self._pool = ThreadPoolExecutor(max(1, _threads() - 1))  # the caller of `map` is a worker too
-        return self._scene
+        return self._bvh
 
     @property
     def threads(self) -> int:
@@ -178,8 +175,7 @@ class Tracer:
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(directions, np.float32)
         self._count(len(o))
-        r = self._ready().run(o, d, output=1)
-        return Hits(r["primID"], r["u"], r["v"], r["tfar"], r["Ng"], d)
+        return Hits(*self._ready().closest(o, d), d)
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """Closest hit of each ray. origins, directions: (N, 3); directions unit length."""
@@ -193,8 +189,8 @@ class Tracer:
     def occluded_chunk(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """(N,) bool occlusion traced on the calling thread (see `occluded`); tmax (N,) f32."""
         self._count(len(origins))
-        return self._ready().run(np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32),
-                                 dists=np.require(tmax, np.float32, "CW"), query="OCCLUDED") >= 0  # only read
+        return self._ready().occluded(np.ascontiguousarray(origins, np.float32),
+                                      np.ascontiguousarray(directions, np.float32), np.ascontiguousarray(tmax, np.float32))
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
         """(N,) bool: True where something lies along the ray before distance tmax."""
