@@ -51,13 +51,6 @@ class DirectionalSums:
         self.sh[rows, 0] += Y00 * irradiance.sum(axis=1)
         self.sh[rows, 1:] += Y1 * np.einsum("rka,rkc->rac", dirs, irradiance)
 
-    def add_radial(self, rows: np.ndarray, a: np.ndarray, b: np.ndarray, normals: np.ndarray) -> None:
-        """Radiance a + b cos (a, b (R, 3)) over the hemisphere about normals (R, 3), exactly:
-        the hemisphere's integrals of 1, cos, the direction and the direction x cos are 2 pi,
-        pi, pi n and 2 pi n / 3."""
-        self.sh[rows, 0] += Y00 * (2 * np.pi * a + np.pi * b)
-        self.sh[rows, 1:] += Y1 * normals[:, :, None] * (np.pi * a + 2 * np.pi / 3 * b)[:, None, :]
-
     def add_dominant(self, rows: np.ndarray, incident: np.ndarray, dirs: np.ndarray) -> None:
         """K pieces of incident light per patch, I (R, K, 3), arriving along unit dirs (R, K, 3)
         at distinct patches rows (R,)."""
@@ -74,34 +67,29 @@ class DirectionalSums:
 
 
 def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advance=None) -> DirectionalSums:
-    """The sums of what the gather's rays from patches `rows` see (B (N, 3) at patch hits, the
-    sky at misses)."""
+    """The sums of what the gather's rays from patches `rows` (distinct) see (B (N, 3) at
+    patch hits, the sky at misses), chunk by chunk on the tracer's threads
+    (`_kernels.directional_sums`: each chunk's rays go straight into its patches' sums; no
+    chunk keeps its rays' light or directions)."""
     sums = DirectionalSums(len(gatherer.patches))
-    d = gatherer.rays_per_patch
     weights = gatherer.weights.astype(np.float64)
-    solid_angle = np.pi * weights / np.maximum(gatherer.dirs[:, 2].astype(np.float64), MIN_COS)  # local z = cos
-    B = np.asarray(B, np.float64)
+    cos = gatherer.dirs[:, 2].astype(np.float64)  # local z = cos
+    solid_angle = np.pi * weights / np.maximum(cos, MIN_COS)
+    moments = np.linalg.inv([[weights.sum(), weights @ cos], [weights @ cos, weights @ cos ** 2]])
+    B = np.ascontiguousarray(B, np.float64)
+    basis, luminance = np.array([Y00, Y1]), LUMINANCE.astype(np.float64)
 
     def chunk(part, seen, dirs):
-        radiance = np.zeros((len(seen), 3))
-        hit = seen >= 0
-        radiance[hit] = B[seen[hit]]
-        sky = seen == _kernels.SKY
-        if gatherer.sky is not None and sky.any():
-            radiance[sky] = gatherer.sky.radiance(dirs[sky])
-        return part, radiance.reshape(len(part), d, 3), dirs.astype(np.float64).reshape(len(part), d, 3)
-
-    cos = gatherer.dirs[:, 2].astype(np.float64)
-    moments = np.linalg.inv([[weights.sum(), weights @ cos], [weights @ cos, weights @ cos ** 2]])
-    for part, radiance, dirs in gatherer.look_rows(rows, chunk):
-        m0, m1 = np.einsum("rdc,d->rc", radiance, weights), np.einsum("rdc,d->rc", radiance, weights * cos)
-        a, b = moments[0, 0] * m0 + moments[0, 1] * m1, moments[1, 0] * m0 + moments[1, 1] * m1
-        sums.add_radial(part, a, b, gatherer.patches.normal[part].astype(np.float64))
-        residual = radiance - a[:, None] - b[:, None] * cos[None, :, None]
-        sums.add_sh(part, residual * solid_angle[None, :, None], dirs)
-        sums.add_dominant(part, radiance * weights[None, :, None], dirs)
+        sky_dirs = _kernels.sky_directions(seen, dirs)
+        sky = (gatherer.sky.radiance(sky_dirs) if gatherer.sky is not None and len(sky_dirs)
+               else np.zeros((len(sky_dirs), 3)))
+        _kernels.directional_sums(part.astype(np.int64), seen, dirs, B, np.asarray(sky, np.float64), weights, cos,
+                                  solid_angle, moments, gatherer.patches.normal, basis, luminance,
+                                  sums.sh, sums.dominant)
         if advance is not None:
             advance(len(part))
+
+    gatherer.look_rows(rows, chunk)
     return sums
 
 
