@@ -115,6 +115,7 @@ def test_an_output_that_cannot_be_made_is_refused_before_any_work(baked, tmp_pat
     (lambda m: m.pop("sky_scale"), "sky_scale needs three numbers"),
     (lambda m: m.update(map_scale="big"), "map_scale must be a positive number"),
     (lambda m: m.pop("variants"), "variants must hold"),
+    (lambda m: m.update(variants=["alpha", "hsv"]), "variants must be an object"),
     (lambda m: m["files"]["color"].pop("dds"), "files must name the color map's png and dds"),
     (lambda m: m["files"]["color"].update(png="../../etc/passwd"), "files must name"),
     (lambda m: m.update(encoding="rgbm"), "encoding must be one of"),

@@ -159,7 +159,10 @@ def check_manifest(manifest: dict, where) -> None:
         bad("area", "needs four numbers x0, z0, x1, z1 with x1 > x0 and z1 > z0")
     if manifest.get("encoding") not in ENCODINGS:
         bad("encoding", f"must be one of {', '.join(ENCODINGS)}")
-    encodings = [(manifest["encoding"], manifest)] + sorted((manifest.get("variants") or {}).items())
+    variants = manifest.get("variants") or {}
+    if not isinstance(variants, dict):
+        bad("variants", "must be an object of the two encodings other than the map's own")
+    encodings = [(manifest["encoding"], manifest)] + sorted(variants.items())
     if set(name for name, _ in encodings) != set(ENCODINGS):
         bad("variants", "must hold the two encodings other than the map's own")
     for name, entry in encodings:
