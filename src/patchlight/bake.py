@@ -130,8 +130,9 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     _check_scene(scene)
     available = available_memory()  # read once, before the bake holds any of it
     cluster = _join_cluster(settings.ray)
+    directional = bool(settings.directional)
     if settings.resolution is not None:
-        check_bake_memory(settings.resolution, settings.resolution, available)
+        check_bake_memory(settings.resolution, settings.resolution, available, directional)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
@@ -141,7 +142,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
                 padding=settings.padding, densities=settings.density, max_atlas=settings.max_atlas)
             loading.join()
-        check_bake_memory(width, height, available)
+        check_bake_memory(width, height, available, directional)
         with progress.stage("patches"):
             patches, _ = rasterize(scene, width, height)
         if len(patches) == 0:
@@ -170,7 +171,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
                 gatherer.emitters, gatherer.nee_samples = emitters, samples
         rays_direct = tracer.rays_traced
         gatherer.cluster = cluster
-        budget = form_factor_budget(width, height, settings.max_memory, available)
+        budget = form_factor_budget(width, height, settings.max_memory, available, directional)
         ff = FormFactors(gatherer, budget)
         gather_start = time.perf_counter()
         status, order, sampled = gather_adaptive(ff, patches, direct, settings, progress)
@@ -227,7 +228,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "rays_per_second": rays_in_gather / max(gather_seconds, 1e-9),
         "lost_rays": ff.lost_rays,
         "form_factor_matrix": {"kept": ff.kept, "entries": ff.entries, "bytes": ff.nbytes, "budget": int(budget)},
-        "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget),
+        "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget, directional),
                    "peak_resident_bytes": peak_resident_bytes()},
         "estimated_seconds": estimate_seconds(width, height),
         "passes": len(solution.changes),

@@ -9,7 +9,9 @@ covered or not, plus the form-factor matrix F (FORM_FACTOR_BYTES_PER_TEXEL: the 
 4.91 GiB at 1024, 2048 and 4096: 256 MiB plus 276, 300 and 298 bytes a texel (the
 writing, since in bands beside texels.npz, less: 4.52 GiB at 4096). Direct light
 works chunk by chunk, so its points per texel cost nothing per texel, and texels.npz is
-written pass by pass. The time is CPU seconds per texel over the cores, 21 microseconds
+written pass by pass. Directional maps (`--directional`) add DIRECTIONAL_BYTES_PER_TEXEL: their
+float64 sums per patch and their images (the room at 1024 and 2048: 204 and 210 bytes a texel
+with sh, 187 at 2048 with dominant). The time is CPU seconds per texel over the cores, 21 microseconds
 each: a bound that errs long (the room at 4096 takes 183-198 CPU seconds for 16.8 M
 texels, 10.9-11.8 each, and 136-139 s of wall clock where the estimate says 176). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
@@ -27,22 +29,25 @@ from ..limits import available_memory
 
 BASE_BYTES = 256 << 20         # the interpreter and its libraries
 BYTES_PER_TEXEL = 300          # F aside (module docstring)
+DIRECTIONAL_BYTES_PER_TEXEL = 210  # more with directional maps (module docstring)
 FORM_FACTOR_BYTES_PER_TEXEL = 110  # F of the room per lightmap texel (module docstring)
 CORE_SECONDS_PER_TEXEL = 21e-6  # the room's whole bake per texel on one core of this machine (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
 
 
-def estimate_bake_bytes(width: int, height: int) -> int:
-    """Peak bytes of baking a width x height lightmap, F aside (it adapts to what is left)."""
-    return BASE_BYTES + int(width) * int(height) * BYTES_PER_TEXEL
+def estimate_bake_bytes(width: int, height: int, directional: bool = False) -> int:
+    """Peak bytes of baking a width x height lightmap (with directional maps or not), F aside
+    (it adapts to what is left)."""
+    per_texel = BYTES_PER_TEXEL + (DIRECTIONAL_BYTES_PER_TEXEL if directional else 0)
+    return BASE_BYTES + int(width) * int(height) * per_texel
 
 
-def estimate_peak_bytes(width: int, height: int, budget: int) -> int:
+def estimate_peak_bytes(width: int, height: int, budget: int, directional: bool = False) -> int:
     """Peak bytes of the whole bake: the rest (estimate_bake_bytes) plus F at the room's
     measured bytes per texel, at most its budget (beyond it F is dropped and re-gathered)."""
     form_factors = min(FORM_FACTOR_BYTES_PER_TEXEL * int(width) * int(height), int(budget))
-    return estimate_bake_bytes(width, height) + form_factors
+    return estimate_bake_bytes(width, height, directional) + form_factors
 
 
 def estimate_seconds(width: int, height: int) -> float:
@@ -57,10 +62,10 @@ def peak_resident_bytes() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
-def check_bake_memory(width: int, height: int, available: int | None = None) -> None:
+def check_bake_memory(width: int, height: int, available: int | None = None, directional: bool = False) -> None:
     """Refuse (PatchlightError) a lightmap whose bake would not fit in the available memory,
     with the estimates of memory and time and the largest resolution that would fit."""
-    needed = estimate_bake_bytes(width, height)
+    needed = estimate_bake_bytes(width, height, directional)
     usable = HEADROOM * (available_memory() if available is None else int(available))
     if usable > 0 and needed > usable:
         side = int(math.sqrt(max(usable - BASE_BYTES, 0) / max(needed - BASE_BYTES, 1)) * min(width, height)) // 4 * 4
@@ -70,10 +75,11 @@ def check_bake_memory(width: int, height: int, available: int | None = None) -> 
             f"lower `resolution` (about {max(side, MIN_SIDE)}) or `texels_per_unit`")
 
 
-def form_factor_budget(width: int, height: int, max_memory: int, available: int | None = None) -> int:
+def form_factor_budget(width: int, height: int, max_memory: int, available: int | None = None,
+                       directional: bool = False) -> int:
     """Bytes F may keep: max_memory, or what the machine has left beside the rest of the bake."""
     available = available_memory() if available is None else int(available)
     if available <= 0:
         return int(max_memory)
-    left = HEADROOM * available - estimate_bake_bytes(width, height)
+    left = HEADROOM * available - estimate_bake_bytes(width, height, directional)
     return int(max(0, min(max_memory, left)))
