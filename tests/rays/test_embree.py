@@ -108,3 +108,14 @@ def test_a_missing_library_is_one_clear_error(tmp_path, monkeypatch):
     monkeypatch.setattr(embree.importlib.util, "find_spec", lambda name: Spec())
     with pytest.raises(PatchlightError, match="carries no Embree 4 library"):
         embree._library_file()
+
+
+def test_an_error_embree_reports_while_tracing_is_raised(scenes, monkeypatch):
+    positions, _, _, _ = scenes
+    bvh = TriangleBvh(*_box())
+    origins, directions = _rays(positions, 20)
+    monkeypatch.setattr(bvh._api, "device_error", lambda device: 3)  # RTC_ERROR_INVALID_OPERATION
+    with pytest.raises(PatchlightError, match=r"Embree failed to trace rays \(error 3\)"):
+        bvh.closest(origins, directions)
+    with pytest.raises(PatchlightError, match="error 3"):
+        bvh.occluded(origins, directions, np.ones(20, np.float32))

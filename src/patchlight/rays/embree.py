@@ -128,17 +128,25 @@ class TriangleBvh:
         error = api.device_error(device)
         if error:
             raise PatchlightError(f"Embree could not build the scene of {len(indices):,} triangles (error {error})")
-        self.scene = scene
+        self.scene, self._device = scene, device
 
     def closest(self, origins: np.ndarray, directions: np.ndarray):
         """Closest hits of contiguous (N, 3) f32 rays from t = 0: tri (N,) i32 (-1: escaped),
         u, v, t (N,) f32, normal (N, 3) f32 (the triangle's geometric normal, its winding's,
         unnormalised); where a ray escaped, t = 1e37 and u, v, normal are 0."""
-        return closest_hits(self._api.intersect16, self.scene, origins, directions)
+        return self._checked(closest_hits(self._api.intersect16, self.scene, origins, directions))
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """(N,) bool: something lies on each contiguous (N, 3) f32 ray in (0, tmax (N,) f32)."""
-        return occluded_rays(self._api.occluded16, self.scene, origins, directions, tmax)
+        return self._checked(occluded_rays(self._api.occluded16, self.scene, origins, directions, tmax))
+
+    def _checked(self, result):
+        """result, unless Embree refused a call on this thread (a library built without ray
+        packets would leave every ray unanswered rather than fail)."""
+        error = self._api.device_error(self._device)
+        if error:
+            raise PatchlightError(f"Embree failed to trace rays (error {error})")
+        return result
 
 
 def _release(api: _Api, device: int, scene: int) -> None:
