@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from patchlight.errors import PatchlightError
 from patchlight.inputs import open_input
 from patchlight.render import Renderer, target_settings
 from patchlight.scene.model import Light
@@ -33,10 +34,12 @@ def main() -> None:
           f"{len(lights)} lights, {os.cpu_count()} cores")
     pixels = args.size * args.size
     for model in MODELS:
-        if model == "lightmap" and target.lightmap is None:
-            print(f"  {model:12s} skipped: {args.scene} is not a bake directory")
-            continue
         settings = target_settings(target, model=model, lights=lights)
+        try:
+            renderer.require_inputs(settings)
+        except PatchlightError as missing:
+            print(f"  {model:12s} skipped: {missing}")
+            continue
         renderer.render(settings, camera, 64, 64)  # warm up
         best = float("inf")
         for _ in range(args.repeat):
