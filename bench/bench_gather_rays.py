@@ -3,8 +3,9 @@
 Lays out a built-in scene's lightmap as the bake does, picks patches spread evenly over it,
 gathers them chunk by chunk on one thread (`Gatherer.gather_chunk`: ray generation, the
 Embree trace, the item buffer, the rows of F dealt to their panels) and traces the same rays
-again with one bare embreex call per chunk. Prints nanoseconds of thread CPU time per ray for both and the
-difference, the work around the Embree call. The best of `--repeat` runs counts; thread
+again with one bare call of the tracer's packet kernel per chunk (`TriangleBvh.closest`).
+Prints nanoseconds of thread CPU time per ray for both and the difference, the work around
+the Embree call. The best of `--repeat` runs counts; thread
 CPU time is what a shared machine's load distorts least, but caches are shared: say the load.
 Run by hand: `.venv/bin/python bench/bench_gather_rays.py [--resolution N ...] [--scenes ...]`.
 """
@@ -21,6 +22,7 @@ from patchlight.atlas.uvs import ensure_lightmap_uvs
 from patchlight.config import BakeSettings
 from patchlight.radiosity.emitters import find_emitters, samples_per_texel
 from patchlight.radiosity.gather import Gatherer
+from patchlight.rays.embree import TriangleBvh
 from patchlight.rays.hemisphere import hemisphere_rays
 from patchlight.rays.tracer import Tracer
 from patchlight.scene import load_scene
@@ -49,12 +51,12 @@ def run(name: str, resolution: int, patches: int, repeat: int, emitter_samples: 
     p = g.patches
     rows = np.linspace(0, len(p) - 1, min(patches, len(p))).astype(np.int64)
     chunks = g._chunks(rows)
-    scene = g.tracer._ready()
+    bvh = TriangleBvh(g.tracer.positions, g.tracer.indices)
 
     def bare(chunk):
         origins, dirs = hemisphere_rays(p.position, p.normal, g.offset, chunk, g.dirs, g.seed)
         start = time.thread_time()
-        scene.run(origins, dirs, output=1)
+        bvh.closest(origins, dirs)
         return time.thread_time() - start
 
     g.gather_chunk(chunks[0])  # JIT and BVH warm-up, not timed
