@@ -188,7 +188,7 @@ def test_the_plugins_highlight_matches_the_cpu_directional_specular(browser, tmp
                  "--rays", "64", "--directional", "dominant", "--quiet"]) == 0
     cpu, (shiny, dull), _ = cpu_and_three(browser, out, tmp_path, "--model", "lightmap-directional", "--normal-map",
                                           "--specular", specular=(True, False))
-    assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.1) <= 2  # highlights: fewer smooth
+    assert smooth_difference(cpu, shiny, "plugin vs CPU, dominant with specular", least=0.08) <= 2  # highlights: fewer smooth (10 % of the picture)
     missing = covered_difference(dull, cpu, "without the highlight")
     assert np.mean(missing > 4) > 0.05 and missing.max() > 20
 

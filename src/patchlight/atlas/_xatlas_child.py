@@ -25,53 +25,92 @@ SHRINK_ATTEMPTS = 12
 BISECTIONS = 4
 
 
-def _generate(positions, indices, padding, texels_per_unit, resolution):
+def _pack_options(padding, texels_per_unit, resolution):
     import xatlas
 
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(positions, indices)
     pack = xatlas.PackOptions()
     pack.padding = padding
     pack.bilinear = True
     pack.blockAlign = False
     pack.texels_per_unit = texels_per_unit
     pack.resolution = resolution
-    atlas.generate(xatlas.ChartOptions(), pack)
-    return atlas
+    return pack
 
 
-def _fits(atlas, resolution):
-    return atlas.atlas_count == 1 and atlas.width <= resolution and atlas.height <= resolution
+class _Packing:
+    """One packing's result: vmapping (V',) source vertex of each output vertex, indices
+    (T, 3), uv (V', 2) in texel units, width, height, pages, texels_per_unit, charts."""
+
+    def __init__(self, atlas, vmapping=None):
+        own_vmapping, self.indices, uv = atlas[0]
+        self.vmapping = own_vmapping if vmapping is None else vmapping[own_vmapping]
+        self.width, self.height, self.pages = int(atlas.width), int(atlas.height), int(atlas.atlas_count)
+        self.uv = uv.astype(np.float64) * np.array([self.width, self.height], np.float64)
+        self.texels_per_unit, self.charts = float(atlas.texels_per_unit), int(atlas.chart_count)
+
+    def fits(self, resolution) -> bool:
+        return self.pages == 1 and self.width <= resolution and self.height <= resolution
+
+    def overflow(self, resolution) -> float:
+        return max(self.width / resolution, self.height / resolution, np.sqrt(self.pages))
 
 
-def _fitted(positions, indices, padding, resolution):
-    """The atlas of the largest texel density found whose charts fit one resolution-sized page:
-    xatlas's own estimate, shrunk (or grown) until it fits (or fails), then bisected."""
+def _generate(positions, indices, padding, texels_per_unit, resolution) -> _Packing:
+    """xatlas's charts of the mesh, packed."""
+    import xatlas
+
+    atlas = xatlas.Atlas()
+    atlas.add_mesh(positions, indices)
+    atlas.generate(xatlas.ChartOptions(), _pack_options(padding, texels_per_unit, resolution))
+    return _Packing(atlas)
+
+
+def _repacker(first: _Packing, padding, resolution):
+    """Packs the charts of `first` again at another density, without computing them again:
+    its charts as a UV mesh in world units (texels over its density), whose connected pieces
+    are the charts. Charting took 0.43 s of each 0.46 s packing of a town of 11,340 triangles."""
+    import xatlas
+
+    uv_world = (first.uv / first.texels_per_unit).astype(np.float32)
+    indices = np.ascontiguousarray(first.indices, np.uint32)
+
+    def pack(texels_per_unit):
+        atlas = xatlas.Atlas()
+        atlas.add_uv_mesh(uv_world, indices)
+        atlas.generate(xatlas.ChartOptions(), _pack_options(padding, texels_per_unit, resolution))
+        return _Packing(atlas, first.vmapping)
+    return pack
+
+
+def _fitted(positions, indices, padding, resolution) -> _Packing:
+    """The packing of the largest texel density found whose charts fit one resolution-sized
+    page: xatlas's own estimate, shrunk (or grown) until it fits (or fails), then bisected;
+    the charts are made once, by the first packing."""
     atlas = _generate(positions, indices, padding, 0.0, resolution)
+    repack = _repacker(atlas, padding, resolution)
     fitting, failing = None, None
-    density = float(atlas.texels_per_unit)
+    density = atlas.texels_per_unit
     for _ in range(SHRINK_ATTEMPTS):
-        if _fits(atlas, resolution):
+        if atlas.fits(resolution):
             fitting = (density, atlas)
             break
         failing = density
-        overflow = max(atlas.width / resolution, atlas.height / resolution, np.sqrt(atlas.atlas_count))
-        density *= min(0.9, 0.98 / overflow)
-        atlas = _generate(positions, indices, padding, density, resolution)
+        density *= min(0.9, 0.98 / atlas.overflow(resolution))
+        atlas = repack(density)
     if fitting is None:
         raise SystemExit(f"xatlas could not fit the charts in {resolution}x{resolution}")
     limit = 64 * density
     while failing is None and density < limit:  # the estimate fitted: grow until it fails
         density *= 1.25
-        atlas = _generate(positions, indices, padding, density, resolution)
-        if _fits(atlas, resolution):
+        atlas = repack(density)
+        if atlas.fits(resolution):
             fitting = (density, atlas)
         else:
             failing = density
     for _ in range(BISECTIONS if failing is not None else 0):
         density = 0.5 * (fitting[0] + failing)
-        atlas = _generate(positions, indices, padding, density, resolution)
-        if _fits(atlas, resolution):
+        atlas = repack(density)
+        if atlas.fits(resolution):
             fitting = (density, atlas)
         else:
             failing = density
@@ -103,15 +142,12 @@ def main(argv):
         texels_per_unit = float(data["texels_per_unit"])
         resolution = int(data["resolution"])
     if resolution > 0:
-        atlas = _fitted(positions, indices, padding, resolution)
+        packing = _fitted(positions, indices, padding, resolution)
     else:
-        atlas = _generate(positions, indices, padding, texels_per_unit, 0)
-    vmapping, out_indices, uv = atlas[0]
-    width, height = int(atlas.width), int(atlas.height)
-    uv_texels = uv.astype(np.float64) * np.array([width, height], np.float64)
+        packing = _generate(positions, indices, padding, texels_per_unit, 0)
     with result:
-        np.savez(result, vmapping=vmapping, indices=out_indices, uv=uv_texels, width=width, height=height,
-                 texels_per_unit=float(atlas.texels_per_unit), charts=int(atlas.chart_count))
+        np.savez(result, vmapping=packing.vmapping, indices=packing.indices, uv=packing.uv, width=packing.width,
+                 height=packing.height, texels_per_unit=packing.texels_per_unit, charts=packing.charts)
 
 
 if __name__ == "__main__":
