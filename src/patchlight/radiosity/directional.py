@@ -80,10 +80,8 @@ def gather_directions(gatherer: Gatherer, B: np.ndarray, rows: np.ndarray, advan
     basis, luminance = np.array([Y00, Y1]), LUMINANCE.astype(np.float64)
 
     def chunk(part, seen, dirs):
-        sky_dirs = _kernels.sky_directions(seen, dirs)
-        sky = (gatherer.sky.radiance(sky_dirs) if gatherer.sky is not None and len(sky_dirs)
-               else np.zeros((len(sky_dirs), 3)))
-        _kernels.directional_sums(part.astype(np.int64), seen, dirs, B, np.asarray(sky, np.float64), weights, cos,
+        sky = np.asarray(gatherer.sky_seen(seen, dirs), np.float64)
+        _kernels.directional_sums(part.astype(np.int64), seen, dirs, B, sky, weights, cos,
                                   solid_angle, moments, gatherer.patches.normal, basis, luminance,
                                   sums.sh, sums.dominant)
         if advance is not None:

@@ -182,14 +182,19 @@ class Gatherer:
                                      p.width, p.height, self.ranks)
         return seen, dirs, hits
 
+    def sky_seen(self, seen: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """(K, 3) the sky's radiance along the K rays of `seen` that escape, in ray order (0
+        without a sky)."""
+        sky_dirs = _kernels.sky_directions(seen, dirs)
+        if self.sky is None or len(sky_dirs) == 0:
+            return np.zeros((len(sky_dirs), 3), np.float32)
+        return self.sky.radiance(sky_dirs)
+
     def gather_chunk(self, rows: np.ndarray, progress=None) -> GatherRows:
         """One chunk's rows (the unit of work a Ray task runs)."""
         seen, dirs, hits = self._see(rows, self.dirs)
-        sky_dirs = _kernels.sky_directions(seen, dirs)
-        radiance = (self.sky.radiance(sky_dirs) if self.sky is not None and len(sky_dirs)
-                    else np.zeros((len(sky_dirs), 3), np.float32))
-        starts, entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, radiance, self.panels,
-                                                                   self.unit is not None)
+        starts, entries, S, back, lost = _kernels.item_buffer_rows(seen, self.weights, self.sky_seen(seen, dirs),
+                                                                   self.panels, self.unit is not None)
         if self.emits:
             S += self._emission_seen(seen, hits, dirs)
         if progress is not None:
