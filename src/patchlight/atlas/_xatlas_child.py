@@ -65,13 +65,14 @@ def _generate(positions, indices, padding, texels_per_unit, resolution) -> _Pack
     return _Packing(atlas)
 
 
-def _repacker(first: _Packing, padding, resolution):
+def _repacker(first: _Packing, positions, padding, resolution):
     """Packs the charts of `first` again at another density, without computing them again:
-    its charts as a UV mesh in world units (texels over its density), whose connected pieces
-    are the charts. Charting took 0.43 s of each 0.46 s packing of a town of 11,340 triangles."""
+    its charts as a UV mesh in metres (`_chart_shapes`; positions (V, 3) the mesh's), whose
+    connected pieces are the charts. Charting took 0.43 s of each 0.46 s packing of a town
+    of 11,340 triangles."""
     import xatlas
 
-    uv_world = (first.uv / first.texels_per_unit).astype(np.float32)
+    uv_world = _chart_shapes(first, positions).astype(np.float32)
     indices = np.ascontiguousarray(first.indices, np.uint32)
 
     def pack(texels_per_unit):
@@ -82,12 +83,67 @@ def _repacker(first: _Packing, padding, resolution):
     return pack
 
 
+def _chart_shapes(packing: _Packing, positions) -> np.ndarray:
+    """(V', 2) f64 the packing's UVs in metres, chart by chart: each chart's texel UVs times
+    the square root of its `_metrics`. xatlas rounds each chart's size up to whole texels,
+    axis by axis, and shrinks a chart larger than the page: the UVs over the density alone
+    would carry that stretch into every later packing, which adds its own."""
+    indices = packing.indices.astype(np.int64)
+    _, welded = np.unique(packing.uv, axis=0, return_inverse=True)  # a chart's triangles meet at equal UVs
+    chart = _pieces(welded.reshape(-1)[indices], len(packing.uv))
+    world = np.asarray(positions, np.float64)[packing.vmapping][indices]  # (T, 3, 3)
+    uv = packing.uv[indices]
+    du = (np.roll(uv, -1, axis=1) - uv).reshape(-1, 2)  # edges 01, 12, 20
+    length2 = np.square(np.roll(world, -1, axis=1) - world).sum(axis=2).reshape(-1)
+    fallback = np.eye(2) / packing.texels_per_unit ** 2
+    values, vectors = np.linalg.eigh(_metrics(du, length2, np.repeat(chart, 3), int(chart.max(initial=-1)) + 1,
+                                              fallback))
+    root = vectors @ (np.sqrt(values)[:, :, None] * vectors.transpose(0, 2, 1))
+    vertex_chart = np.zeros(len(packing.uv), np.int64)
+    vertex_chart[indices.reshape(-1)] = np.repeat(chart, 3)
+    return np.einsum("vij,vj->vi", root[vertex_chart], packing.uv)
+
+
+def _metrics(du, length2, edge_chart, charts, fallback) -> np.ndarray:
+    """(charts, 2, 2) per chart the symmetric positive metric M that best gives its edges du
+    (E, 2) in texels their squared lengths length2 (E,) in square metres, du M du = length2
+    (least squares on the relative error; linear in M's three entries), edge_chart (E,) each
+    edge's chart; fallback (2, 2) where the fit has no unique or no positive answer."""
+    used = length2 > 0
+    rows = np.stack([du[:, 0] ** 2, 2 * du[:, 0] * du[:, 1], du[:, 1] ** 2], axis=1)[used] / length2[used, None]
+    normal, rhs = np.zeros((charts, 3, 3)), np.zeros((charts, 3))
+    np.add.at(normal, edge_chart[used], rows[:, :, None] * rows[:, None, :])
+    np.add.at(rhs, edge_chart[used], rows)
+    metric = np.broadcast_to(fallback, (charts, 2, 2)).copy()
+    solvable = np.linalg.det(normal) > 1e-9 * (np.trace(normal, axis1=1, axis2=2) / 3) ** 3
+    m = np.linalg.solve(normal[solvable], rhs[solvable][:, :, None])[:, :, 0]
+    positive = (m[:, 0] > 0) & (m[:, 0] * m[:, 2] > m[:, 1] ** 2)
+    metric[np.flatnonzero(solvable)[positive]] = np.stack([m[:, :2], m[:, 1:]], axis=1)[positive]  # [[a, b], [b, c]]
+    return metric
+
+
+def _pieces(indices, count) -> np.ndarray:
+    """(T,) the connected piece (triangles that share vertices) of each triangle of indices
+    (T, 3) over count vertices, numbered 0..: each vertex takes the lowest label of its
+    triangles' vertices, labels jumping to their own label's, until nothing changes."""
+    label = np.arange(count)
+    while True:
+        low = label[indices].min(axis=1)
+        lower = label.copy()
+        np.minimum.at(lower, indices.reshape(-1), np.repeat(low, 3))
+        lower = lower[lower]
+        if np.array_equal(lower, label):
+            break
+        label = lower
+    return np.unique(label[indices[:, 0]], return_inverse=True)[1]
+
+
 def _fitted(positions, indices, padding, resolution) -> _Packing:
     """The packing of the largest texel density found whose charts fit one resolution-sized
     page: xatlas's own estimate, shrunk (or grown) until it fits (or fails), then bisected;
     the charts are made once, by the first packing."""
     atlas = _generate(positions, indices, padding, 0.0, resolution)
-    repack = _repacker(atlas, padding, resolution)
+    repack = _repacker(atlas, positions, padding, resolution)
     fitting, failing = None, None
     density = atlas.texels_per_unit
     for _ in range(SHRINK_ATTEMPTS):
