@@ -110,7 +110,38 @@ def test_a_missing_library_is_one_clear_error(tmp_path, monkeypatch):
         embree._library_file()
 
 
+def test_a_library_that_will_not_load_is_one_clear_error(tmp_path, monkeypatch):
+    broken = tmp_path / "libembree4.so.4"
+    broken.write_text("not a shared library")
+    monkeypatch.setattr(embree, "_library_file", lambda: broken)
+    monkeypatch.setattr(embree._Api, "_loaded", None)
+    with pytest.raises(PatchlightError, match="libembree4.so.4 could not be loaded"):
+        TriangleBvh(*_box())
+
+
+def test_rays_the_kernels_cannot_read_are_refused(scenes):
+    *_, bvh = scenes
+    origins, directions = _rays(scenes[0], 20)
+    for bad in (origins[:, :2], origins.astype(np.float64), np.asfortranarray(origins), origins[:10]):
+        with pytest.raises(ValueError, match="contiguous f32"):
+            bvh.closest(bad, directions)
+    with pytest.raises(ValueError, match="contiguous f32"):
+        bvh.occluded(origins, directions, np.ones(1, np.float32))  # one tmax for 20 rays
+
+
+def test_a_negative_tmax_counts_as_occluded_as_in_embreex(scenes):
+    _, _, reference, bvh = scenes
+    origins = np.array([[5, 5, 5], [5, 5, 5]], np.float32)
+    directions = np.array([[1, 0, 0], [1, 0, 0]], np.float32)  # away from everything
+    tmax = np.array([-1, 1], np.float32)
+    np.testing.assert_array_equal(bvh.occluded(origins, directions, tmax), [True, False])
+    np.testing.assert_array_equal(reference.run(origins, directions, dists=tmax.copy(), query="OCCLUDED") >= 0,
+                                  [True, False])
+
+
 def test_an_error_embree_reports_while_tracing_is_raised(scenes, monkeypatch):
+    """What the device reports after a call is raised (the library shipped reports no error a
+    test can provoke: its checks of packets are in debug builds alone)."""
     positions, _, _, _ = scenes
     bvh = TriangleBvh(*_box())
     origins, directions = _rays(positions, 20)

@@ -38,8 +38,10 @@ BUFFER_INDEX, BUFFER_VERTEX = 0, 1
 FORMAT_UINT3, FORMAT_FLOAT3 = 0x5003, 0x9003
 # A RTCRayHit16 as float32 lanes of WIDTH: the ray's fields, then the hit's.
 ORG_X, ORG_Y, ORG_Z, TNEAR, DIR_X, DIR_Y, DIR_Z, TIME, TFAR, MASK, RAY_ID, FLAGS = range(12)
-NG_X, NG_Y, NG_Z, HIT_U, HIT_V, PRIM_ID, GEOM_ID, INST_ID, INST_PRIM_ID = range(12, 21)
-PACKET_FLOATS = 21 * WIDTH  # with room for the hit's instance ids, which Embree writes too
+NG_X, NG_Y, NG_Z, HIT_U, HIT_V, PRIM_ID, GEOM_ID, INST_ID = range(12, 20)
+# The hit ends with a row of instance ids (and one of instance primitive ids) per instance
+# level, which Embree writes too: room for 14 levels (Embree's default build has 1).
+PACKET_FLOATS = 48 * WIDTH
 ALIGN = 64  # bytes: Embree's packets are 64-byte aligned
 
 
@@ -63,7 +65,11 @@ class _Api:
     _loaded = None
 
     def __init__(self):
-        lib = ctypes.CDLL(str(_library_file()))
+        path = _library_file()
+        try:
+            lib = ctypes.CDLL(str(path))
+        except OSError as exc:
+            raise PatchlightError(f"Embree's library {path} could not be loaded ({exc})") from None
         p, i, u, s = ctypes.c_uint64, ctypes.c_int, ctypes.c_uint, ctypes.c_size_t
 
         def fn(name, restype, *argtypes):
@@ -109,9 +115,11 @@ class TriangleBvh:
             raise PatchlightError("Embree could not start (rtcNewDevice failed)")
         scene = api.new_scene(device)
         self._release = weakref.finalize(self, _release, api, device, scene)
+        geometry = scene and api.new_geometry(device, GEOMETRY_TRIANGLE)
+        if not geometry:
+            raise PatchlightError(f"Embree could not make a scene (error {api.device_error(device)})")
         api.scene_flags(scene, SCENE_FLAG_ROBUST)
         api.scene_quality(scene, BUILD_QUALITY_MEDIUM)
-        geometry = api.new_geometry(device, GEOMETRY_TRIANGLE)
         api.geometry_quality(geometry, BUILD_QUALITY_MEDIUM)
         for kind, form, array in ((BUFFER_VERTEX, FORMAT_FLOAT3, np.ascontiguousarray(positions, np.float32)),
                                   (BUFFER_INDEX, FORMAT_UINT3, np.ascontiguousarray(indices, np.uint32))):
@@ -134,10 +142,13 @@ class TriangleBvh:
         """Closest hits of contiguous (N, 3) f32 rays from t = 0: tri (N,) i32 (-1: escaped),
         u, v, t (N,) f32, normal (N, 3) f32 (the triangle's geometric normal, its winding's,
         unnormalised); where a ray escaped, t = 1e37 and u, v, normal are 0."""
+        _check_rays(origins, directions)
         return self._checked(closest_hits(self._api.intersect16, self.scene, origins, directions))
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray) -> np.ndarray:
-        """(N,) bool: something lies on each contiguous (N, 3) f32 ray in (0, tmax (N,) f32)."""
+        """(N,) bool: something lies on each contiguous (N, 3) f32 ray in (0, tmax (N,) f32);
+        a ray of tmax < 0 counts as occluded (Embree leaves it untraced), as in embreex."""
+        _check_rays(origins, directions, tmax)
         return self._checked(occluded_rays(self._api.occluded16, self.scene, origins, directions, tmax))
 
     def _checked(self, result):
@@ -149,8 +160,19 @@ class TriangleBvh:
         return result
 
 
+def _check_rays(origins, directions, tmax=None) -> None:
+    """ValueError unless the rays are what the kernels read without bounds checks: origins
+    and directions (N, 3) and tmax (N,), all f32 and contiguous."""
+    arrays = (origins, directions) if tmax is None else (origins, directions, tmax)
+    shapes = [(len(origins), 3), (len(origins), 3), (len(origins),)][:len(arrays)]
+    if any(not isinstance(a, np.ndarray) or a.shape != shape or a.dtype != np.float32 or not a.flags.c_contiguous
+           for a, shape in zip(arrays, shapes)):
+        raise ValueError("rays must be contiguous f32 arrays: origins and directions (N, 3), tmax (N,)")
+
+
 def _release(api: _Api, device: int, scene: int) -> None:
-    api.release_scene(scene)
+    if scene:
+        api.release_scene(scene)
     api.release_device(device)
 
 
