@@ -206,7 +206,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
             with progress.stage("seams"):
                 images, seams = stitch_seams(scene, patches, inside, images)
         lightmap = images[0]
-        directional = split_maps(settings.directional, images[1]) if settings.directional else None
+        maps = split_maps(settings.directional, images[1]) if settings.directional else None
     counts = np.bincount(status, minlength=4)
     to_come = change_to_come(solution.changes)
     stats = {
@@ -230,7 +230,7 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "form_factor_matrix": {"kept": ff.kept, "entries": ff.entries, "bytes": ff.nbytes, "budget": int(budget)},
         "memory": {"estimated_peak_bytes": estimate_peak_bytes(width, height, budget, directional),
                    "peak_resident_bytes": peak_resident_bytes()},
-        "estimated_seconds": estimate_seconds(width, height),
+        "estimated_seconds": estimate_seconds(width, height, bool(settings.directional)),
         "passes": len(solution.changes),
         "pass_changes": solution.changes,
         "change_to_come": to_come if math.isfinite(to_come) else None,  # None: not known yet
@@ -243,4 +243,4 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "ray": None if cluster is None else cluster.to_json(),
         "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
     }
-    return BakeResult(scene, patches, lightmap, status, solution, fill, stats, pass_incident, walled, directional)
+    return BakeResult(scene, patches, lightmap, status, solution, fill, stats, pass_incident, walled, maps)

@@ -87,17 +87,20 @@ def test_the_peak_estimate_counts_f_up_to_its_budget_and_bake_json_holds_it_besi
     assert 50 << 20 < memory["peak_resident_bytes"] < 8 << 30  # the interpreter's own, and more
 
 
-def test_directional_maps_count_in_the_estimate_and_in_the_refusal():
+def test_directional_maps_count_in_the_estimates_and_in_the_refusal():
     from patchlight.errors import PatchlightError
     from patchlight.radiosity.memory import (DIRECTIONAL_BYTES_PER_TEXEL, check_bake_memory, estimate_bake_bytes,
-                                             estimate_peak_bytes)
+                                             estimate_peak_bytes, estimate_seconds)
 
     assert (estimate_bake_bytes(1024, 512, directional=True) - estimate_bake_bytes(1024, 512)
             == DIRECTIONAL_BYTES_PER_TEXEL * 1024 * 512)
     plain = estimate_bake_bytes(2048, 2048)
     check_bake_memory(2048, 2048, available=int(plain / 0.89))  # fits without its directional maps
-    with pytest.raises(PatchlightError, match="lightmap 2048x2048"):
+    minutes = estimate_seconds(2048, 2048, directional=True) / 60
+    assert minutes > estimate_seconds(2048, 2048) / 60 + 0.5  # they gather every texel again
+    with pytest.raises(PatchlightError, match=f"lightmap 2048x2048: .* about {minutes:.0f} minutes"):
         check_bake_memory(2048, 2048, available=int(plain / 0.89), directional=True)
     stats = bake(load_scene("cornell"), BakeSettings(resolution=32, directional="dominant")).stats
     budget = stats["form_factor_matrix"]["budget"]
     assert stats["memory"]["estimated_peak_bytes"] == estimate_peak_bytes(32, 32, budget, directional=True)
+    assert stats["estimated_seconds"] == estimate_seconds(32, 32, directional=True)

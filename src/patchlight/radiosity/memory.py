@@ -11,9 +11,11 @@ writing, since in bands beside texels.npz, less: 4.52 GiB at 4096). Direct light
 works chunk by chunk, so its points per texel cost nothing per texel, and texels.npz is
 written pass by pass. Directional maps (`--directional`) add DIRECTIONAL_BYTES_PER_TEXEL: their
 float64 sums per patch and their images (the room at 1024 and 2048: 204 and 210 bytes a texel
-with sh, 187 at 2048 with dominant). The time is CPU seconds per texel over the cores, 21 microseconds
-each: a bound that errs long (the room at 4096 takes 183-198 CPU seconds for 16.8 M
-texels, 10.9-11.8 each, and 136-139 s of wall clock where the estimate says 176). F gets what is left, up to max_memory, and is
+with sh, 187 at 2048 with dominant). The time is CPU seconds per texel over the cores: 8
+microseconds each, a bound that errs long (the bake alone of the room at 4096 took 85 CPU
+seconds for 16.8 M texels, 5.1 each, the room at 1024 4.6, the Cornell box 4.0, the town of
+bench/bench_large.py at 2048 5.8), and 40 more with directional maps, which gather every
+texel again (the room with sh at 1024 added 13, the Cornell box with dominant 29). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
@@ -31,7 +33,8 @@ BASE_BYTES = 256 << 20         # the interpreter and its libraries
 BYTES_PER_TEXEL = 300          # F aside (module docstring)
 DIRECTIONAL_BYTES_PER_TEXEL = 210  # more with directional maps (module docstring)
 FORM_FACTOR_BYTES_PER_TEXEL = 110  # F of the room per lightmap texel (module docstring)
-CORE_SECONDS_PER_TEXEL = 21e-6  # the room's whole bake per texel on one core of this machine (module docstring)
+CORE_SECONDS_PER_TEXEL = 8e-6  # a bake per texel on one core of this machine, a bound (module docstring)
+DIRECTIONAL_CORE_SECONDS_PER_TEXEL = 40e-6  # more with directional maps (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
 
@@ -50,9 +53,11 @@ def estimate_peak_bytes(width: int, height: int, budget: int, directional: bool 
     return estimate_bake_bytes(width, height, directional) + form_factors
 
 
-def estimate_seconds(width: int, height: int) -> float:
-    """Seconds a width x height bake of a scene like the room takes on this machine's cores."""
-    return CORE_SECONDS_PER_TEXEL * int(width) * int(height) / (os.cpu_count() or 1)
+def estimate_seconds(width: int, height: int, directional: bool = False) -> float:
+    """Seconds a width x height bake (with directional maps or not) takes on this machine's
+    cores, at most (module docstring)."""
+    per_texel = CORE_SECONDS_PER_TEXEL + (DIRECTIONAL_CORE_SECONDS_PER_TEXEL if directional else 0)
+    return per_texel * int(width) * int(height) / (os.cpu_count() or 1)
 
 
 def peak_resident_bytes() -> int:
@@ -71,7 +76,7 @@ def check_bake_memory(width: int, height: int, available: int | None = None, dir
         side = int(math.sqrt(max(usable - BASE_BYTES, 0) / max(needed - BASE_BYTES, 1)) * min(width, height)) // 4 * 4
         raise PatchlightError(
             f"lightmap {width}x{height}: the bake needs about {needed / 2**30:.1f} GiB (and about "
-            f"{estimate_seconds(width, height) / 60:.0f} minutes) but only {usable / 2**30:.1f} GiB is available; "
+            f"{estimate_seconds(width, height, directional) / 60:.0f} minutes) but only {usable / 2**30:.1f} GiB is available; "
             f"lower `resolution` (about {max(side, MIN_SIDE)}) or `texels_per_unit`")
 
 
