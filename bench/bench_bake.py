@@ -29,23 +29,44 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+import patchlight.bake as bake_module
 from patchlight.bake import bake
 from patchlight.config import BakeSettings
+from patchlight.radiosity.emitters import TEXELS_PER_CHUNK, next_event_rays
 from patchlight.rays.embree import TriangleBvh
 from patchlight.rays.tracer import Tracer
 from patchlight.scene import load_scene
 
 
+def packed_emitter_light(emitters, patches, tri_uv1, points, side, lift, tracer, gather_rays, seed=1):
+    """The bake's emitter_light with its shadow rays packed first (next_event_rays) and traced
+    through Tracer.occluded_chunk, where RecordedRays sees them: the same rays and the same
+    light (tests/radiosity/test_emitters.py), where the bake traces them inside its kernel."""
+    out = np.zeros((len(patches), 3), np.float32)
+
+    def chunk(first, last):
+        rows = np.arange(first, last, dtype=np.int64)
+        ray, origins, dirs, tmax, value = next_event_rays(emitters, patches, tri_uv1, points, side, lift, rows,
+                                                          gather_rays, seed)
+        blocked = tracer.occluded_chunk(origins, dirs, tmax)
+        np.add.at(out[first:last], ray // (side * side), value * ~blocked[:, None])  # in ray order
+
+    tracer.over_spans(chunk, 0, len(patches), TEXELS_PER_CHUNK)
+    return out
+
+
 class RecordedRays:
     """Keeps a copy of the rays of one tracer call in `sample` while active: (origins,
-    directions, tmax or None for closest hit) per call; `cast` counts every ray by kind."""
+    directions, tmax or None for closest hit) per call; `cast` counts every ray by kind. The
+    emitters' shadow rays, which the bake traces inside its kernel, are packed and traced
+    through the tracer meanwhile (`packed_emitter_light`)."""
 
     def __init__(self, sample: int = 1):
         self.batches = []
         self.cast = {False: 0, True: 0}  # occlusion? -> rays
         self.sample = sample
         self._calls = itertools.count()
-        self._originals = (Tracer.intersect_chunk, Tracer.occluded_chunk)
+        self._originals = (Tracer.intersect_chunk, Tracer.occluded_chunk, bake_module.emitter_light)
 
     def _record(self, origins, directions, far):
         self.cast[far is not None] += len(origins)
@@ -53,7 +74,7 @@ class RecordedRays:
             self.batches.append((np.array(origins, np.float32), np.array(directions, np.float32), far))
 
     def __enter__(self):
-        intersect_chunk, occluded_chunk = self._originals
+        intersect_chunk, occluded_chunk, _ = self._originals
         record = self._record
 
         def recorded_intersect_chunk(tracer, origins, directions):
@@ -65,10 +86,11 @@ class RecordedRays:
             return occluded_chunk(tracer, origins, directions, tmax)
 
         Tracer.intersect_chunk, Tracer.occluded_chunk = recorded_intersect_chunk, recorded_occluded_chunk
+        bake_module.emitter_light = packed_emitter_light
         return self
 
     def __exit__(self, *exc):
-        Tracer.intersect_chunk, Tracer.occluded_chunk = self._originals
+        Tracer.intersect_chunk, Tracer.occluded_chunk, bake_module.emitter_light = self._originals
 
     def recorded(self, occlusion: bool) -> int:
         return sum(len(o) for o, _, far in self.batches if (far is not None) == occlusion)

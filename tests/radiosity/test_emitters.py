@@ -114,9 +114,9 @@ def _two_emitters_and_a_normal(rng):
 
 
 def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
-    """emitter_rays skips the texels `_faces_no_emitter` finds facing away from every emitter
+    """next_event_samples skips the texels `_faces_no_emitter` finds facing away from every emitter
     (or behind every one): brute force over 300 points of each emitter (its corners among
-    them) and every origin must then find each pair's cos <= 0, as emitter_rays computes it,
+    them) and every origin must then find each pair's cos <= 0, as next_event_samples computes it,
     also at a hair's breadth: an emitter's corner in the texel's plane, origins in an emitter's."""
     from patchlight.radiosity._kernels import _faces_no_emitter
 
@@ -151,7 +151,7 @@ def test_a_texel_is_skipped_only_where_no_sample_could_reach_an_emitter():
 
 
 def test_the_corners_of_a_texels_grid_cull_as_all_its_points_do():
-    """emitter_rays tests the four corner points of a texel's grid of points (an affine image
+    """next_event_samples tests the four corner points of a texel's grid of points (an affine image
     of the cells, none past a rim): the culling decision equals the one over all 64 points,
     emitters in front, behind and edge-on among the cases."""
     from patchlight.radiosity._kernels import _faces_no_emitter
@@ -231,24 +231,31 @@ def test_the_branch_free_search_picks_the_emitter_a_plain_search_picks():
         np.testing.assert_array_equal(t, table[:, expected])
 
 
-def test_the_unblocked_rays_sums_are_written_texel_by_texel_in_order():
-    """unblocked_sums against a plain loop: each texel's unblocked values added in ray order
-    from 0, over whatever out held; texels without rays or with every ray blocked get 0, and
-    so does every texel when there is no ray at all."""
-    from patchlight.radiosity._kernels import unblocked_sums
+def test_the_traced_samples_light_each_texel_as_its_packed_rays_do():
+    """emitter_light traces its shadow rays as the kernel makes them; the same rays packed
+    (next_event_rays), traced by the tracer and their unblocked light added texel by texel in
+    ray order give the same light to the bit, with the same rays counted, in a box whose
+    walls and a block cast shadows (some texels see the lamp, some part of it, some none)."""
+    from patchlight.atlas.raster import TexelPoints, rasterize
+    from patchlight.atlas.uvs import ensure_lightmap_uvs
+    from patchlight.radiosity.emitters import emitter_light, find_emitters, next_event_rays
+    from patchlight.radiosity.gather import Gatherer
+    from patchlight.rays.tracer import Tracer
+    from patchlight.scene import load_scene
 
-    rng = np.random.default_rng(12)
-    k = 16
-    for texels, live in ((1, 0.5), (9, 0.4), (257, 0.05)):
-        ray = np.flatnonzero(rng.random(texels * k) < live).astype(np.int64)
-        value = (rng.random((len(ray), 3)) * 10.0 ** rng.uniform(-5, 5, (len(ray), 1))).astype(np.float32)
-        blocked = rng.random(len(ray)) < 0.3
-        out = rng.random((texels, 3), dtype=np.float32)
-        expected = np.zeros_like(out)
-        for q in np.flatnonzero(~blocked):
-            expected[ray[q] // k] += value[q]
-        unblocked_sums(value, ray, blocked, k, out)
-        np.testing.assert_array_equal(out, expected)
-    out = np.ones((2, 3), np.float32)
-    unblocked_sums(np.zeros((0, 3), np.float32), np.zeros(0, np.int64), np.zeros(0, bool), k, out)
-    np.testing.assert_array_equal(out, 0.0)
+    scene, width, height, _ = ensure_lightmap_uvs(load_scene("cornell"), resolution=64)
+    patches, _ = rasterize(scene, width, height)
+    tracer = Tracer(scene.positions, scene.indices)
+    gatherer = Gatherer(scene, patches, tracer, "stratified", 64, 1)
+    emitters, points, side = find_emitters(scene, patches), TexelPoints(scene, patches), 4
+    traced = emitter_light(emitters, patches, gatherer.tri_uv1, points, side, gatherer.offset, tracer, 64, seed=3)
+    rays_traced = tracer.rays_traced
+    rows = np.arange(len(patches), dtype=np.int64)
+    ray, origins, dirs, tmax, value = next_event_rays(emitters, patches, gatherer.tri_uv1, points, side,
+                                                      gatherer.offset, rows, 64.0, 3)
+    blocked = tracer.occluded(origins, dirs, tmax)
+    expected = np.zeros((len(patches), 3), np.float32)
+    np.add.at(expected, ray // (side * side), value * (~blocked[:, None]).astype(np.float32))  # in ray order
+    assert rays_traced == len(ray) and 0.1 < blocked.mean() < 0.9
+    assert np.count_nonzero(expected.max(axis=1) > 0) > len(patches) // 4
+    np.testing.assert_array_equal(traced, expected)

@@ -9,6 +9,7 @@ from numba.extending import intrinsic, overload
 
 from ..atlas.raster import sub_texel_cells, texel_points
 from ..imaging.halves import half_bits
+from ..rays.embree import WIDTH, occlude_packet, packet_memory
 from ..rays.inside import is_back_face
 from ..rays.tracer import faces_ray
 
@@ -301,7 +302,7 @@ def _faces_no_emitter(points, lx, ly, lz, nx, ny, nz, corners, em_normal, em_two
     behind the plane of the texel's normal (nx, ny, nz) through its nearest ray origin (points
     (3, K) lifted by (lx, ly, lz)), or sees all those origins from behind its own plane (one-
     sided), each by CULL_MARGIN of the coordinates' size (the largest |x| of the origins and
-    of the corners, `reach`) and more: then emitter_rays would find cos <= 0 at every sample,
+    of the corners, `reach`) and more: then next_event_samples would find cos <= 0 at every sample,
     whatever the rounding. Stops at the first emitter in view. The points may be the corners
     of a convex set of origins: the nearest, the farthest and the bounds are those of its
     corners (all three are linear), and the margin dwarfs the rounding of the points inside."""
@@ -395,8 +396,8 @@ def _emitter_table(cdf, pdf_area, em_tri, corners, em_normal, em_two_sided):
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
-def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_normal, em_two_sided, em_patch,
-                 tri_uv1, width, height, index, emission, gather_rays, seed):
+def next_event_samples(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners, em_normal, em_two_sided,
+                       em_patch, tri_uv1, width, height, index, emission, gather_rays, seed, occluded16, scene, out):
     """Next-event estimation towards emissive triangles: one shadow ray per sub-texel point.
 
     The K = side * side points of each texel of patches `rows` (R,) are made texel by texel
@@ -408,23 +409,37 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     power with its stratum of K (a per-texel permutation pairs strata with points), a point
     uniform on it, and reads the radiance of the emitter's patch there (tri_uv1, index,
     emission: what the gather sees; em_patch's, where it is not -1, is the same).
-    Returns the L rays that can carry light, packed in sample order: ray (L,) i64 sample ids
-    (r * K + j), origins, dirs (L, 3) f32, tmax (L,) f32 and each ray's incident light if
-    unblocked (L, 3) f32: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
+    The rays that can carry light, in sample order, each with its incident light if
+    unblocked: Le cos / (pi p) / K, p the solid-angle pdf, MIS-weighted against
     `gather_rays` cosine rays (power heuristic). The other samples carry none, and a texel
     that `_faces_no_emitter` draws none at all.
+
+    occluded16 0: returns the L rays packed (ray (L,) i64 sample ids r * K + j, origins,
+    dirs (L, 3) f32, tmax (L,) f32, their light (L, 3) f32) and L. Else the rays go, WIDTH
+    at a time as they are made, through rtcOccluded16 at that address (scene: the Embree
+    scene; `embree.occlude_packet`), the same packets as `embree.occluded_rays` of the
+    packed rays would trace; out (R, 3) f32 gets each texel's sum in order of its unblocked
+    rays' light (a blocked ray adds its light times 0: no branch on the shadow rays' random
+    outcome), and the arrays returned are empty. out is written before it is read: np.zeros'
+    fresh pages, read first, map the kernel's shared zero page, and each first write then
+    costs a copy-on-write fault that flushes every core's TLB (0.75 ms a page, measured).
     A texel's K samples go step by step through loops over all K (each step a loop the
     compiler turns into vector instructions, the same operations on every sample), the
     samples that carry no light then left out; their numbers may be inf or NaN meanwhile
     (IEEE division, error_model "numpy"), never read.
     """
     r_count, k_count = rows.shape[0], side * side
-    n = r_count * k_count
-    ray = np.empty(n, np.int64)
-    origins = np.empty((n, 3), np.float32)
-    dirs = np.empty((n, 3), np.float32)
-    tmax = np.empty(n, np.float32)
-    value = np.empty((n, 3), np.float32)
+    tracing = occluded16 != 0
+    capacity = WIDTH if tracing else r_count * k_count  # traced: one packet's rays at a time
+    ray = np.empty(capacity, np.int64)
+    origins = np.empty((capacity, 3), np.float32)
+    dirs = np.empty((capacity, 3), np.float32)
+    tmax = np.empty(capacity, np.float32)
+    value = np.empty((capacity, 3), np.float32)
+    packet, valid = packet_memory()
+    blocked = np.empty(WIDTH, np.bool_)
+    if tracing:
+        out[:] = 0.0
     points = np.empty((3, k_count))
     hull = np.empty((3, 4))
     grid_corners = np.array([0, side - 1, k_count - side, k_count - 1])  # the cells' corners, point ids
@@ -441,7 +456,7 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
     inv_k = 1.0 / k_count if k_count & (k_count - 1) == 0 else 0.0  # see _divided
     m = cdf.shape[0]
     reach = np.abs(corners).max() if m > 0 else 0.0
-    live = 0
+    live = traced = 0
     for r in range(r_count):
         p = rows[r]
         nx, ny, nz = np.float64(normal[p, 0]), np.float64(normal[p, 1]), np.float64(normal[p, 2])
@@ -502,35 +517,29 @@ def emitter_rays(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, corners,
                 value[live, a] = f[j] * emission[s, a]
             tmax[live] = dist[j] * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
             live += 1
-    return ray[:live], origins[:live], dirs[:live], tmax[:live], value[:live]
+            if live == capacity and tracing:
+                _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, live,
+                                k_count, blocked)
+                traced += live
+                live = 0
+    if tracing and live:
+        _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, live, k_count, blocked)
+        traced += live
+        live = 0
+    return ray[:live], origins[:live], dirs[:live], tmax[:live], value[:live], traced
 
 
-@nb.njit(cache=True, nogil=True)
-def unblocked_sums(value, ray, blocked, k, out):
-    """Write into out (R, 3) f32, per texel, the sum in order of the values (L, 3) of
-    emitter_rays' rays `ray` (L,) (sample ids r * k + j, ascending) but those `blocked` (L,)
-    (their shadow ray met something), 0 for a texel without any. A texel's sums are kept in
-    registers, and a blocked ray adds its value times 0: no branch on the shadow rays'
-    random outcome, and the same sums, the values being finite and not negative (light).
-    out is zeroed here, written before it is read: np.zeros' fresh pages, read first, map
-    the kernel's shared zero page, and each first write then costs a copy-on-write fault
-    that flushes every core's TLB (on the VM measured, 0.75 ms a page)."""
-    out[:] = 0.0
-    if ray.shape[0] == 0:
-        return
-    r, end = 0, k  # the texel of ray q, and its samples' end: no division per ray
-    red, green, blue = out[0, 0], out[0, 1], out[0, 2]
-    for q in range(ray.shape[0]):
-        if ray[q] >= end:
-            out[r, 0], out[r, 1], out[r, 2] = red, green, blue
-            while ray[q] >= end:
-                r, end = r + 1, end + k
-            red, green, blue = out[r, 0], out[r, 1], out[r, 2]
+@nb.njit(cache=True, inline="always")
+def _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, n, k, blocked):
+    """Trace rays 0..n-1 (n <= WIDTH) in one packet and add the light (n, 3) of those
+    unblocked into out's rows of their texels (ray ids // k), blocked ones times 0."""
+    occlude_packet(occluded16, scene, packet, valid, origins, dirs, tmax, n, blocked)
+    for q in range(n):
         seen = np.float32(0.0) if blocked[q] else np.float32(1.0)
-        red += seen * value[q, 0]
-        green += seen * value[q, 1]
-        blue += seen * value[q, 2]
-    out[r, 0], out[r, 1], out[r, 2] = red, green, blue
+        r = ray[q] // k
+        out[r, 0] += seen * value[q, 0]
+        out[r, 1] += seen * value[q, 1]
+        out[r, 2] += seen * value[q, 2]
 
 
 @nb.njit(cache=True, inline="always")
@@ -649,7 +658,7 @@ def _emits(emitting, s):
 def _emission_share(i, tri, dist, dirs, local_dirs, pdf_area, tri_normal, nee_samples):
     """The share (f32) of its emission gather ray i, which meets an emitting patch, counts: 1,
     or where next-event estimation samples the triangle it hits (nee_samples > 0 per texel,
-    pdf_area > 0), its MIS weight against those samples (power heuristic; emitter_rays is
+    pdf_area > 0), its MIS weight against those samples (power heuristic; next_event_samples is
     the other half). tri, dist: the rays' hit triangles and distances; dirs (R * D, 3);
     local_dirs (D, 3) with z along the normal; pdf_area (T,) the next-event pdf per m^2 of
     each triangle; tri_normal (T, 3)."""

@@ -106,7 +106,7 @@ def point_light(points: np.ndarray, normals: np.ndarray, sources: list, tracer: 
     normals = np.asarray(normals, np.float64)
     lift = np.broadcast_to(np.asarray(lift, np.float64), (len(points),))[:, None, None]
     origins = points + lift * normals[:, None]
-    total = np.full(points.shape[:2] + (3,), 0.0)  # written, not np.zeros: see _kernels.unblocked_sums
+    total = np.full(points.shape[:2] + (3,), 0.0)  # written, not np.zeros: see _kernels.next_event_samples
     for source in sources:
         if isinstance(source, _Sun):
             sun_light(origins, normals, source, tracer, total)

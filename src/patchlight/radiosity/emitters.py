@@ -85,28 +85,39 @@ def find_emitters(scene: Scene, patches: Patches) -> Emitters | None:
 def next_event_rays(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
                     lift: np.ndarray, rows: np.ndarray, gather_rays: float, seed: int):
     """The live next-event shadow rays of patches `rows` (R,) i64, side x side per texel
-    (`_kernels.emitter_rays`: ray ids, origins, directions, tmax and light), MIS-weighted
+    (`_kernels.next_event_samples`: ray ids, origins, directions, tmax and light), MIS-weighted
     against gather_rays cosine rays per patch (0: at full weight)."""
-    e = emitters
-    return _kernels.emitter_rays(points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles,
-                                 e.corners, e.normals, e.two_sided, e.patch, tri_uv1, patches.width, patches.height,
-                                 patches.index, patches.emission, float(gather_rays), seed)
+    return _samples(emitters, patches, tri_uv1, points, side, lift, rows, gather_rays, seed, 0, 0,
+                    np.empty((0, 3), np.float32))[:5]
 
 
 def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
                   lift: np.ndarray, tracer: Tracer, gather_rays: int, seed: int = 1) -> np.ndarray:
     """(N, 3) f32 incident light from the emitters at every patch, the mean over its texel:
     one shadow ray from each point of a side x side grid over the texel (`points`, made by
-    the kernel texel by texel, chunks of texels on the tracer's threads); lift
-    (N,) metres off the surface; gather_rays: the gather's rays per patch (the MIS partner)."""
-    out = np.empty((len(patches), 3), np.float32)  # each chunk's rows written by unblocked_sums
+    the kernel texel by texel, chunks of texels on the tracer's threads), the rays traced as
+    they are made (the same rays as `next_event_rays`); lift (N,) metres off the surface;
+    gather_rays: the gather's rays per patch (the MIS partner)."""
+    out = np.empty((len(patches), 3), np.float32)  # each chunk's rows written by the kernel
+
+    def traced(occluded16, scene, first, last):
+        rows = np.arange(first, last, dtype=np.int64)
+        rays = _samples(emitters, patches, tri_uv1, points, side, lift, rows, gather_rays, seed, occluded16, scene,
+                        out[first:last])[5]
+        return None, rays
 
     def chunk(first, last):
-        rows = np.arange(first, last, dtype=np.int64)
-        ray, origins, dirs, tmax, value = next_event_rays(emitters, patches, tri_uv1, points, side, lift, rows,
-                                                          gather_rays, seed)
-        blocked = tracer.occluded_chunk(origins, dirs, tmax)
-        _kernels.unblocked_sums(value, ray, blocked, side * side, out[first:last])
+        tracer.occluding(traced, first, last)
 
     tracer.over_spans(chunk, 0, len(patches), TEXELS_PER_CHUNK)
     return out
+
+
+def _samples(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
+             lift: np.ndarray, rows: np.ndarray, gather_rays: float, seed: int, occluded16: int, scene: int,
+             out: np.ndarray):
+    e = emitters
+    return _kernels.next_event_samples(points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles,
+                                       e.corners, e.normals, e.two_sided, e.patch, tri_uv1, patches.width,
+                                       patches.height, patches.index, patches.emission, float(gather_rays), seed,
+                                       occluded16, scene, out)

@@ -151,6 +151,12 @@ class TriangleBvh:
         _check_rays(origins, directions, tmax)
         return self._checked(occluded_rays(self._api.occluded16, self.scene, origins, directions, tmax))
 
+    def occluding(self, kernel, *args):
+        """kernel(occluded16, scene, *args): a nopython kernel that makes shadow rays and
+        traces them itself in packets (`occlude_packet`), Embree's errors raised as for
+        `occluded`."""
+        return self._checked(kernel(self._api.occluded16, self.scene, *args))
+
     def _checked(self, result):
         """result, unless Embree refused a call on this thread (a library built without ray
         packets would leave every ray unanswered rather than fail)."""
@@ -257,19 +263,32 @@ def closest_hits(intersect16, scene, origins, directions):
     return tri, u, v, t, normal
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def packet_memory():
+    """(packet, valid): the aligned lanes of one packet, for `occlude_packet`; made once per
+    kernel call and reused for every packet."""
+    return _aligned_words(PACKET_FLOATS), _aligned_words(WIDTH).view(np.int32)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def occlude_packet(occluded16, scene, packet, valid, origins, directions, tmax, n, blocked):
+    """Rays 0..n-1 (n <= WIDTH) of origins, directions (>= n, 3) f32 and tmax (>= n,) f32
+    through rtcOccluded16 at address occluded16 in one packet (`packet_memory`): blocked[k]
+    True where something lies on ray k (Embree sets an occluded ray's tfar to -inf). For
+    kernels that make their shadow rays themselves and trace them as they go."""
+    _load_packet(packet, packet.view(np.uint32), valid, origins, directions, tmax, 0, n)
+    _call4(occluded16, valid.ctypes.data, scene, packet.ctypes.data)
+    for k in range(n):
+        blocked[k] = packet[TFAR * WIDTH + k] < 0.0
+
+
 @nb.njit(cache=True, nogil=True)
 def occluded_rays(occluded16, scene, origins, directions, tmax):
-    """`TriangleBvh.occluded` through rtcOccluded16 at address occluded16 (Embree sets an
-    occluded ray's tfar to -inf)."""
+    """`TriangleBvh.occluded` through rtcOccluded16 at address occluded16 (`occlude_packet`)."""
     n = origins.shape[0]
     out = np.empty(n, np.bool_)
-    packet = _aligned_words(PACKET_FLOATS)
-    bits = packet.view(np.uint32)
-    valid = _aligned_words(WIDTH).view(np.int32)
+    packet, valid = packet_memory()
     for start in range(0, n, WIDTH):
-        m = min(WIDTH, n - start)
-        _load_packet(packet, bits, valid, origins, directions, tmax, start, m)
-        _call4(occluded16, valid.ctypes.data, scene, packet.ctypes.data)
-        for k in range(m):
-            out[start + k] = packet[TFAR * WIDTH + k] < 0.0
+        occlude_packet(occluded16, scene, packet, valid, origins[start:], directions[start:], tmax[start:],
+                       min(WIDTH, n - start), out[start:])
     return out

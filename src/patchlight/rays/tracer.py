@@ -192,6 +192,15 @@ class Tracer:
         return self._ready().occluded(np.ascontiguousarray(origins, np.float32),
                                       np.ascontiguousarray(directions, np.float32), np.ascontiguousarray(tmax, np.float32))
 
+    def occluding(self, kernel, *args):
+        """kernel(occluded16, scene, *args) -> (result, rays traced), run on the calling
+        thread: a nopython kernel that makes its own shadow rays and traces them in packets as
+        it goes (`embree.occlude_packet`), no ray arrays between. Its rays are counted as
+        `occluded_chunk`'s are; returns its result."""
+        result, rays = self._ready().occluding(kernel, *args)
+        self._count(rays)
+        return result
+
     def occluded(self, origins: np.ndarray, directions: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
         """(N,) bool: True where something lies along the ray before distance tmax."""
         o = np.ascontiguousarray(origins, np.float32)
