@@ -11,11 +11,13 @@ writing, since in bands beside texels.npz, less: 4.52 GiB at 4096). Direct light
 works chunk by chunk, so its points per texel cost nothing per texel, and texels.npz is
 written pass by pass. Directional maps (`--directional`) add DIRECTIONAL_BYTES_PER_TEXEL: their
 float64 sums per patch and their images (the room at 1024 and 2048: 204 and 210 bytes a texel
-with sh, 187 at 2048 with dominant). The time is CPU seconds per texel over the cores: 8
-microseconds each, a bound that errs long (the bake alone of the room at 4096 took 85 CPU
-seconds for 16.8 M texels, 5.1 each, the room at 1024 4.6, the Cornell box 4.0, the town of
-bench/bench_large.py at 2048 5.8), and 40 more with directional maps, which gather every
-texel again (the room with sh at 1024 added 13, the Cornell box with dominant 29). F gets what is left, up to max_memory, and is
+with sh, 187 at 2048 with dominant). The time is CPU seconds per texel over the cores: 22
+microseconds each, a bound for the machines measured, which differ threefold (the whole
+command, the room at 1024, 2048 and 4096: 18, 15 and 14 on one VM, 241 CPU seconds for 16.8 M
+texels at 4096; the bake alone on a faster one: the room 4.6-5.1, the Cornell box 4.0, the
+town of bench/bench_large.py at 2048 5.8), and 40 more with directional maps, which gather
+every texel again (the room with sh at 1024 added 31 on the first VM, 13 on the faster one;
+the Cornell box with dominant 29 there). F gets what is left, up to max_memory, and is
 dropped for re-gathering once it would not fit (solve.FormFactors). The rest is checked before any work, so a lightmap too
 large is refused with the estimate (and the time it would take) instead of being killed by
 the kernel halfway; the whole estimate (estimate_peak_bytes, estimate_seconds) goes into
@@ -33,7 +35,7 @@ BASE_BYTES = 256 << 20         # the interpreter and its libraries
 BYTES_PER_TEXEL = 300          # F aside (module docstring)
 DIRECTIONAL_BYTES_PER_TEXEL = 210  # more with directional maps (module docstring)
 FORM_FACTOR_BYTES_PER_TEXEL = 110  # F of the room per lightmap texel (module docstring)
-CORE_SECONDS_PER_TEXEL = 8e-6  # a bake per texel on one core of this machine, a bound (module docstring)
+CORE_SECONDS_PER_TEXEL = 22e-6  # a bake per texel on one core, a bound (module docstring)
 DIRECTIONAL_CORE_SECONDS_PER_TEXEL = 40e-6  # more with directional maps (module docstring)
 HEADROOM = 0.9                 # of the available memory, the share a bake may plan to use
 MIN_SIDE = 16
