@@ -32,6 +32,9 @@ from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
 
+COMPILED = ("numba compiled patchlight's kernels for this machine during this bake (its first since installing "
+            "them), about a minute; the next bakes load them from its cache")
+
 @dataclass
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,
@@ -101,11 +104,12 @@ def directional_images(scene: Scene, patches: Patches, points, fill: LightmapFil
     return fill.image(sums.lightmap_values(mode))
 
 
-def _load_jit() -> None:
+def _load_jit(cached: list[bool]) -> None:
     """`load_first_kernel` on a thread while the UVs are made (the main thread only waits for
-    xatlas's child then); the bake's own call of that kernel raises whatever this one meets."""
+    xatlas's child then), its answer appended to `cached`; the bake's own call of that kernel
+    raises whatever this one meets."""
     try:
-        load_first_kernel()
+        cached.append(load_first_kernel())
     except Exception:
         pass
 
@@ -136,7 +140,8 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
     start = time.perf_counter()
     with Progress(quiet) as progress:
         with progress.stage("lightmap UVs"):
-            loading = threading.Thread(target=_load_jit, daemon=True)
+            cached = []  # did numba's cache hold the kernels (`load_first_kernel`)?
+            loading = threading.Thread(target=_load_jit, args=(cached,), daemon=True)
             loading.start()
             scene, width, height, uv_info = ensure_lightmap_uvs(
                 scene, texels_per_unit=settings.texels_per_unit, resolution=settings.resolution,
@@ -241,6 +246,6 @@ def bake(scene: Scene, settings: BakeSettings | None = None, quiet: bool = True)
         "uv": uv_info,
         "seams": seams,
         "ray": None if cluster is None else cluster.to_json(),
-        "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])),
+        "warnings": _input_warnings(scene) + list(uv_info.get("warnings", [])) + ([] if all(cached) else [COMPILED]),
     }
     return BakeResult(scene, patches, lightmap, status, solution, fill, stats, pass_incident, walled, maps)

@@ -1,5 +1,6 @@
 """When the form-factor matrix would not fit, passes re-gather its rows: slower, bounded
 memory, the same answer."""
+import os
 import re
 
 import numpy as np
@@ -104,3 +105,23 @@ def test_directional_maps_count_in_the_estimates_and_in_the_refusal():
     budget = stats["form_factor_matrix"]["budget"]
     assert stats["memory"]["estimated_peak_bytes"] == estimate_peak_bytes(32, 32, budget, directional=True)
     assert stats["estimated_seconds"] == estimate_seconds(32, 32, directional=True)
+
+
+def test_a_bake_says_when_numba_compiled_its_kernels_and_only_then(tmp_path, monkeypatch):
+    """load_first_kernel knows a cold cache (a process with an empty NUMBA_CACHE_DIR compiles
+    the kernel; the same process's cache then holds it), and a bake that found it cold says
+    so in its warnings, which the CLI prints; a warm one says nothing."""
+    import subprocess
+    import sys
+
+    import patchlight.bake as bake_module
+
+    probe = "from patchlight.radiosity.gather import load_first_kernel as f; print(f(), f())"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    run = lambda: subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True)
+    assert run().stdout.split() == ["False", "False"]  # compiled in this process: its stats say so
+    assert run().stdout.split() == ["True", "True"]    # the next process loads it from the cache
+    scene = load_scene("cornell")
+    assert bake_module.COMPILED not in bake(scene, BakeSettings(resolution=32)).stats["warnings"]
+    monkeypatch.setattr(bake_module, "load_first_kernel", lambda: False)
+    assert bake_module.COMPILED in bake(scene, BakeSettings(resolution=32)).stats["warnings"]

@@ -38,11 +38,14 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
                                 np.float32(1e-6 * float(np.max(hi - lo))))
 
 
-def load_first_kernel() -> None:
+def load_first_kernel() -> bool:
     """Load `ray_offsets`' kernel from numba's cache as a bake will call it: a process's first
     kernel starts numba's code generator, 0.2 s, which a bake pays on a thread while it waits
-    for the UVs."""
+    for the UVs. Returns whether the cache held it: False on a machine's first bake after
+    installing or changing the kernels, when numba compiles each as the bake first calls it
+    (about a minute of one core in all)."""
     _kernels.ray_offsets(np.zeros((1, 3), np.float32), np.ones(1, np.float32), np.float32(0), np.float32(0))
+    return not _kernels.ray_offsets.stats.cache_misses
 
 
 @dataclass
