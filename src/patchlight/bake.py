@@ -35,6 +35,7 @@ from .shading.directional import DirectionalLightmap
 COMPILED = ("numba compiled patchlight's kernels for this machine during this bake (its first since installing "
             "them), about a minute; the next bakes load them from its cache")
 
+
 @dataclass
 class BakeResult:
     """lightmap: (H, W, 3) f32 incident light, dilated. patches, status (N,) sampler state,

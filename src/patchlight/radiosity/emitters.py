@@ -116,6 +116,10 @@ def emitter_light(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, poi
 def _samples(emitters: Emitters, patches: Patches, tri_uv1: np.ndarray, points: TexelPoints, side: int,
              lift: np.ndarray, rows: np.ndarray, gather_rays: float, seed: int, occluded16: int, scene: int,
              out: np.ndarray):
+    """`_kernels.next_event_samples` of patches `rows`: with occluded16 0, the packed rays
+    (ray ids, origins, directions, tmax, light) and 0; else, tracing through rtcOccluded16 at
+    that address in the Embree `scene`, empty arrays and the rays traced, each texel's
+    unblocked light written into out (R, 3) f32."""
     e = emitters
     return _kernels.next_event_samples(points.grid, side, patches.normal, lift, rows, e.cdf, e.pdf_area, e.triangles,
                                        e.corners, e.normals, e.two_sided, e.patch, tri_uv1, patches.width,
