@@ -41,11 +41,14 @@ def ray_offsets(scene: Scene, patches: Patches) -> np.ndarray:
 def load_first_kernel() -> bool:
     """Load `ray_offsets`' kernel from numba's cache as a bake will call it: a process's first
     kernel starts numba's code generator, 0.2 s, which a bake pays on a thread while it waits
-    for the UVs. Returns whether the cache held it: False on a machine's first bake after
-    installing or changing the kernels, when numba compiles each as the bake first calls it
-    (about a minute of one core in all)."""
+    for the UVs. Returns False when numba had to compile it for this call, as on a machine's
+    first bake after installing or changing the kernels, which compiles each as the bake
+    first calls it (about a minute of one core in all); True when it came from the cache or
+    the process had it already."""
+    misses = _kernels.ray_offsets.stats.cache_misses  # numba's running count, per signature
+    before = sum(misses.values())
     _kernels.ray_offsets(np.zeros((1, 3), np.float32), np.ones(1, np.float32), np.float32(0), np.float32(0))
-    return not _kernels.ray_offsets.stats.cache_misses
+    return sum(misses.values()) == before
 
 
 @dataclass
