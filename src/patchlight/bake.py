@@ -32,8 +32,8 @@ from .rays.tracer import Tracer
 from .scene.model import Scene
 from .shading.directional import DirectionalLightmap
 
-COMPILED = ("numba compiled patchlight's kernels for this machine during this bake (its first since installing "
-            "them), about a minute; the next bakes load them from its cache")
+COMPILED = ("this bake compiled patchlight's kernels for this machine (the first bake since they were "
+            "installed or changed), about a minute; later bakes load them from numba's cache")
 
 
 @dataclass
