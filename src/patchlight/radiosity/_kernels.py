@@ -438,6 +438,7 @@ def next_event_samples(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, co
     value = np.empty((capacity, 3), np.float32)
     packet, valid = packet_memory()
     blocked = np.empty(WIDTH, np.bool_)
+    texel = np.empty(WIDTH, np.int64)  # traced: each lane's row in out, no division per ray
     if tracing:
         out[:] = 0.0
     points = np.empty((3, k_count))
@@ -516,27 +517,29 @@ def next_event_samples(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, co
                 dirs[live, a] = d[a, j]
                 value[live, a] = f[j] * emission[s, a]
             tmax[live] = dist[j] * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
+            if tracing:
+                texel[live] = r
             live += 1
             if live == capacity and tracing:
-                _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, live,
-                                k_count, blocked)
+                _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, texel, live,
+                                blocked)
                 traced += live
                 live = 0
     if tracing and live:
-        _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, live, k_count, blocked)
+        _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, texel, live, blocked)
         traced += live
         live = 0
     return ray[:live], origins[:live], dirs[:live], tmax[:live], value[:live], traced
 
 
 @nb.njit(cache=True, inline="always")
-def _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, ray, n, k, blocked):
+def _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, texel, n, blocked):
     """Trace rays 0..n-1 (n <= WIDTH) in one packet and add the light (n, 3) of those
-    unblocked into out's rows of their texels (ray ids // k), blocked ones times 0."""
+    unblocked into out's rows `texel` (n,), blocked ones times 0."""
     occlude_packet(occluded16, scene, packet, valid, origins, dirs, tmax, n, blocked)
     for q in range(n):
         seen = np.float32(0.0) if blocked[q] else np.float32(1.0)
-        r = ray[q] // k
+        r = texel[q]
         out[r, 0] += seen * value[q, 0]
         out[r, 1] += seen * value[q, 1]
         out[r, 2] += seen * value[q, 2]
