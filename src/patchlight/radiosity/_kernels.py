@@ -415,7 +415,7 @@ def next_event_samples(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, co
     that `_faces_no_emitter` draws none at all.
 
     occluded16 0: returns the L rays packed (ray (L,) i64 sample ids r * K + j, origins,
-    dirs (L, 3) f32, tmax (L,) f32, their light (L, 3) f32) and L. Else the rays go, WIDTH
+    dirs (L, 3) f32, tmax (L,) f32, their light (L, 3) f32) and 0 rays traced. Else the rays go, WIDTH
     at a time as they are made, through rtcOccluded16 at that address (scene: the Embree
     scene; `embree.occlude_packet`), the same packets as `embree.occluded_rays` of the
     packed rays would trace; out (R, 3) f32 gets each texel's sum in order of its unblocked
@@ -511,14 +511,15 @@ def next_event_samples(grid, side, normal, lift, rows, cdf, pdf_area, em_tri, co
                 s = _patch_at(em_tri[e], s1[j] * (1.0 - s2[j]), s1[j] * s2[j], tri_uv1, width, height, index)
                 if s < 0:
                     continue
-            ray[live] = r * k_count + j
+            if tracing:
+                texel[live] = r
+            else:
+                ray[live] = r * k_count + j
             for a in range(3):
                 origins[live, a] = o[a, j]
                 dirs[live, a] = d[a, j]
                 value[live, a] = f[j] * emission[s, a]
             tmax[live] = dist[j] * (1.0 - 1e-4)  # > 0: dist is at least an ulp of the coordinates
-            if tracing:
-                texel[live] = r
             live += 1
             if live == capacity and tracing:
                 _unblocked_into(out, occluded16, scene, packet, valid, origins, dirs, tmax, value, texel, live,
