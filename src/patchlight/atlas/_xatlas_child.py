@@ -1,15 +1,14 @@
-"""Run xatlas in a child process, because it can crash (SIGSEGV) on some meshes.
+"""What a forked child process runs: xatlas, which can crash (SIGSEGV) on some meshes.
 
-Usage: python _xatlas_child.py PARENT_PID < IN.npz > OUT.npz
-IN holds positions (V, 3) f32, indices (T, 3) u32, padding, texels_per_unit (0: none) and
-resolution (0: none).  OUT gets vmapping (V',) u32 (source vertex of each output vertex),
-indices (T, 3) u32, uv (V', 2) f64 in texel units, width, height, texels_per_unit, charts.
-The child asks the kernel to kill it when its parent dies (PR_SET_PDEATHSIG), and exits at
-once if the parent is already gone; it writes no file.
+`packed_npz` takes positions (V, 3) f32, indices (T, 3) u32, padding, texels_per_unit (0:
+none) and resolution (0: none) and returns the bytes of an npz with vmapping (V',) u32
+(source vertex of each output vertex), indices (T, 3) u32, uv (V', 2) f64 in texel units,
+width, height, texels_per_unit, charts. With a resolution, texels_per_unit is searched so
+the charts fill one page of that size. `die_with_parent` asks the kernel to kill the child
+when its parent dies (PR_SET_PDEATHSIG), and exits at once if the parent is already gone.
 
-With a resolution, texels_per_unit is searched so the charts fill one page of that size.
-Setting PATCHLIGHT_XATLAS_CHILD_CRASH=1 makes the child kill itself with SIGSEGV (for tests
-of the parent's fallback path).
+For tests of the parent's fallback paths: PATCHLIGHT_XATLAS_CHILD_CRASH=1 makes the child
+kill itself with SIGSEGV, PATCHLIGHT_XATLAS_CHILD_HANG=1 makes it wait for ever.
 """
 from __future__ import annotations
 
@@ -173,7 +172,7 @@ def _fitted(positions, indices, padding, resolution) -> _Packing:
     return fitting[1]
 
 
-def _die_with_parent(parent: int) -> None:
+def die_with_parent(parent: int) -> None:
     """SIGKILL from the kernel when the parent dies (Linux); exit now if it already has."""
     if sys.platform.startswith("linux"):
         import ctypes
@@ -183,28 +182,17 @@ def _die_with_parent(parent: int) -> None:
         raise SystemExit("the parent process is gone")
 
 
-def main(argv):
-    _die_with_parent(int(argv[0]))
+def packed_npz(positions, indices, padding: int, texels_per_unit: float, resolution: int) -> bytes:
+    """The npz bytes of xatlas's packing of the mesh (module docstring)."""
     if os.environ.get("PATCHLIGHT_XATLAS_CHILD_CRASH") == "1":
         os.kill(os.getpid(), signal.SIGSEGV)
-    if os.environ.get("PATCHLIGHT_XATLAS_CHILD_HANG") == "1":  # tests: a child that never ends
+    if os.environ.get("PATCHLIGHT_XATLAS_CHILD_HANG") == "1":
         signal.pause()
-    result = os.fdopen(os.dup(1), "wb")
-    os.dup2(2, 1)  # anything xatlas prints goes to stderr, not into the result
-    with np.load(io.BytesIO(sys.stdin.buffer.read())) as data:
-        positions = np.ascontiguousarray(data["positions"], np.float32)
-        indices = np.ascontiguousarray(data["indices"], np.uint32)
-        padding = int(data["padding"])
-        texels_per_unit = float(data["texels_per_unit"])
-        resolution = int(data["resolution"])
     if resolution > 0:
         packing = _fitted(positions, indices, padding, resolution)
     else:
         packing = _generate(positions, indices, padding, texels_per_unit, 0)
-    with result:
-        np.savez(result, vmapping=packing.vmapping, indices=packing.indices, uv=packing.uv, width=packing.width,
-                 height=packing.height, texels_per_unit=packing.texels_per_unit, charts=packing.charts)
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
+    out = io.BytesIO()
+    np.savez(out, vmapping=packing.vmapping, indices=packing.indices, uv=packing.uv, width=packing.width,
+             height=packing.height, texels_per_unit=packing.texels_per_unit, charts=packing.charts)
+    return out.getvalue()

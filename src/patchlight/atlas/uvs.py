@@ -22,7 +22,7 @@ Per-object density: each object's positions go to the packer scaled about their 
 its density over the base one, so its charts come out that much larger; `info["objects"]`
 gives each object's density as measured from the UVs made.
 
-xatlas runs in a child process (it can crash on some closed meshes); when it dies, times out
+xatlas runs in a forked child process (it can crash on some closed meshes); when it dies, times out
 or is missing, a simple in-process packer takes over and `info["warnings"]` says so once.
 All triangles of the scene go to xatlas as ONE mesh: a lightmap does not care about
 materials, and one mesh lets xatlas share the page between every chart.
@@ -32,15 +32,15 @@ the image's top row, as glTF has it.
 from __future__ import annotations
 
 import dataclasses
+import faulthandler
 import importlib.util
 import io
 import math
 import os
+import selectors
 import signal
-import subprocess
-import sys
+import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -50,7 +50,7 @@ from ..config import BakeSettings
 from ..errors import PatchlightError
 from ..imaging.packing import shelf_pack
 from ..scene.model import Scene, face_normals, stacked_uv1
-from . import _kernels
+from . import _kernels, _xatlas_child
 
 DEFAULT_TEXELS_PER_UNIT = BakeSettings.texels_per_unit  # texels per metre (config.py)
 MIN_SIZE, MAX_SIZE = 16, 8192   # lightmap edge in texels
@@ -59,7 +59,6 @@ MAX_TEXELS = 8192 * 8192
 PLANAR_COS = 0.99999            # fallback charts: normals within ~0.26 degrees of the seed's
 CELL_MARGIN = 0.01              # texels kept free inside a chart's cell, so float32 uv1 rounding
                                 # (5e-4 texel at 8192) never spills a chart into the next texel
-CHILD_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1"}  # the child needs no BLAS: its threads took 0.13 CPU s to start
 CHILD_TIMEOUT_BASE_S = 60.0     # xatlas child timeout = base + per-triangle x T
 CHILD_TIMEOUT_PER_TRIANGLE_S = 2e-3
 
@@ -328,10 +327,9 @@ def _uv_areas(uv, indices):
 # ----------------------------------------------------------------------------------------
 
 def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
-    """Packing from xatlas in a child process, fed through pipes (no temporary files), which
-    the kernel kills when this process dies. The positions go centred and scaled to a unit
-    extent (xatlas ran for minutes and gigabytes on coordinates of 1e12), the density scaled
-    to match."""
+    """Packing from xatlas in a child process (`_run_in_child`). The positions go centred and
+    scaled to a unit extent (xatlas ran for minutes and gigabytes on coordinates of 1e12),
+    the density scaled to match."""
     if not _xatlas_installed():
         raise _XatlasFailed("xatlas is not installed")
     positions = np.asarray(scene.positions, np.float64)
@@ -339,29 +337,97 @@ def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
     extent = float(np.max(high - low))
     if not (math.isfinite(extent) and extent > 0):
         raise PatchlightError(f"{scene.label}: its positions span {extent:g} m; they must be finite and not all equal")
-    source = io.BytesIO()
-    np.savez(source, positions=((positions - 0.5 * (low + high)) / extent).astype(np.float32),
-             indices=np.asarray(scene.indices, np.uint32), padding=int(padding),
-             texels_per_unit=float(texels_per_unit) * extent, resolution=int(resolution or 0))
+    unit_positions = np.ascontiguousarray((positions - 0.5 * (low + high)) / extent, np.float32)
+    indices = np.ascontiguousarray(scene.indices, np.uint32)
     timeout = CHILD_TIMEOUT_BASE_S + CHILD_TIMEOUT_PER_TRIANGLE_S * scene.n_triangles
-    child = Path(__file__).with_name("_xatlas_child.py")
-    try:
-        run = subprocess.run([sys.executable, str(child), str(os.getpid())], input=source.getvalue(),
-                             capture_output=True, timeout=timeout, env={**os.environ, **CHILD_ENVIRONMENT})
-    except subprocess.TimeoutExpired:
-        raise _XatlasFailed(f"xatlas took longer than {timeout:.0f} s") from None
-    if run.returncode < 0:
-        raise _XatlasFailed(f"xatlas crashed ({_signal_name(-run.returncode)})")
-    if run.returncode != 0:
-        last = (run.stderr.decode(errors="replace").strip().splitlines() or ["no message"])[-1]
-        raise _XatlasFailed(f"xatlas failed (exit status {run.returncode}: {last})")
-    with np.load(io.BytesIO(run.stdout)) as data:
+    result = _run_in_child(lambda: _xatlas_child.packed_npz(unit_positions, indices, int(padding),
+                                                            float(texels_per_unit) * extent, int(resolution or 0)),
+                           timeout)
+    with np.load(io.BytesIO(result)) as data:
         if data["indices"].shape != (scene.n_triangles, 3):
             raise _XatlasFailed(f"xatlas returned {len(data['indices'])} of {scene.n_triangles} triangles")
         return _Packing(vmapping=data["vmapping"].astype(np.int64), indices=data["indices"].astype(np.int32),
                         uv_texels=data["uv"].astype(np.float64), width=int(data["width"]),
                         height=int(data["height"]), texels_per_unit=float(data["texels_per_unit"]) / extent,
                         charts=int(data["charts"]))
+
+
+def _run_in_child(work, timeout: float) -> bytes:
+    """What work() -> bytes returns, run in a forked child process that may crash, hang or
+    fail without harm to this one: raises _XatlasFailed saying how it ended otherwise. The
+    child inherits what this process has imported (a fresh interpreter took 0.1 s to import
+    NumPy and xatlas), writes its result into a pipe and its output into another, ignores
+    Ctrl-C (this process handles it, and kills the child) and is killed by the kernel if this
+    process dies. Killed after `timeout` seconds."""
+    parent = os.getpid()
+    result_read, result_write = os.pipe()
+    output_read, output_write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        status = 1
+        try:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            faulthandler.disable()  # a crash is reported by its exit status, not by a dump on the parent's stderr
+            os.close(result_read)
+            os.close(output_read)
+            os.dup2(output_write, 1)  # anything xatlas prints goes to the output pipe
+            os.dup2(output_write, 2)
+            _xatlas_child.die_with_parent(parent)
+            payload = work()
+            with os.fdopen(result_write, "wb") as out:
+                out.write(payload)
+            status = 0
+        except SystemExit as stop:
+            os.write(2, f"{stop}\n".encode(errors="replace"))
+        except BaseException as error:  # noqa: B036 - whatever happens, the child must exit here
+            os.write(2, f"{type(error).__name__}: {error}\n".encode(errors="replace"))
+        finally:
+            os._exit(status)
+    os.close(result_write)
+    os.close(output_write)
+    reaped = False
+    try:
+        try:
+            result, output = _read_until_closed((result_read, output_read), time.monotonic() + timeout)
+        except TimeoutError:
+            raise _XatlasFailed(f"xatlas took longer than {timeout:.0f} s") from None
+        _, wait_status = os.waitpid(pid, 0)
+        reaped = True
+    finally:
+        if not reaped:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+    if os.WIFSIGNALED(wait_status):
+        raise _XatlasFailed(f"xatlas crashed ({_signal_name(os.WTERMSIG(wait_status))})")
+    code = os.waitstatus_to_exitcode(wait_status)
+    if code != 0:
+        last = (output.decode(errors="replace").strip().splitlines() or ["no message"])[-1]
+        raise _XatlasFailed(f"xatlas failed (exit status {code}: {last})")
+    return result
+
+
+def _read_until_closed(fds: tuple[int, ...], deadline: float) -> list[bytes]:
+    """Everything written into each pipe of `fds` (read ends, closed here) until its writer
+    closes it; TimeoutError at time.monotonic() `deadline`."""
+    chunks = {fd: [] for fd in fds}
+    with selectors.DefaultSelector() as selector:
+        for fd in fds:
+            selector.register(fd, selectors.EVENT_READ)
+        try:
+            while selector.get_map():
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError
+                for key, _ in selector.select(left):
+                    data = os.read(key.fd, 1 << 20)
+                    if data:
+                        chunks[key.fd].append(data)
+                    else:
+                        selector.unregister(key.fd)
+        finally:
+            for fd in fds:
+                os.close(fd)
+    return [b"".join(chunks[fd]) for fd in fds]
 
 
 def _xatlas_installed():
