@@ -45,6 +45,26 @@ def test_rows_gathered_in_several_blocks_make_the_same_matrix(monkeypatch):
     np.testing.assert_allclose(blocks.lightmap, whole.lightmap, rtol=1e-6, atol=1e-8)
 
 
+def test_rows_gathered_at_once_go_to_two_blocks_a_core(monkeypatch):
+    """A call's rows are cut into two blocks a core (down to MIN_SPLIT_ROWS rows each), and
+    every product of them then has a run of blocks for each core: a product multiplies a
+    run on one core, and the sampler's first grid, one block, left the other core idle."""
+    import patchlight.radiosity.solve as solve
+
+    monkeypatch.setenv("PATCHLIGHT_THREADS", "2")
+    monkeypatch.setattr(solve, "MIN_SPLIT_ROWS", 256)  # the box at 64 has 2,403 patches
+    calls, runs = [], []
+    add_block, runs_of = solve.FormFactors._add_block, solve._runs
+    monkeypatch.setattr(solve.FormFactors, "_add_block", lambda self, rows, progress: calls.append(len(rows))
+                        or add_block(self, rows, progress))
+    monkeypatch.setattr(solve, "_runs", lambda blocks, threads: runs.append(runs_of(blocks, threads)) or runs[-1])
+    result = bake(load_scene("cornell"), BakeSettings(resolution=64, adaptive=False))
+    computed = result.stats["computed_patches"] + result.stats["inside_geometry_patches"]
+    assert computed >= 4 * solve.MIN_SPLIT_ROWS and sum(calls) <= computed
+    assert len(calls) == 4 and max(calls) - min(calls) <= 1
+    assert runs and all(len(r) == 2 for r in runs)
+
+
 def test_the_estimate_refuses_what_would_not_fit_and_names_a_resolution_that_would():
     from patchlight.errors import PatchlightError
     from patchlight.radiosity.memory import HEADROOM, check_bake_memory, estimate_bake_bytes, form_factor_budget

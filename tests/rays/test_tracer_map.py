@@ -60,3 +60,22 @@ def test_one_thread_runs_every_item_on_the_caller(monkeypatch, two_workers):
     workers = set()
     assert two_workers.map(lambda x: workers.add(threading.get_ident()) or x, [1, 2, 3]) == [1, 2, 3]
     assert workers == {threading.get_ident()}
+
+
+@pytest.mark.parametrize("first, last, size, parts, smallest", [(0, 10000, 129, 4, 16), (5, 300, 129, 4, 16),
+                                                                 (0, 7, 129, 4, 16), (0, 1000, 50, 8, 1), (3, 3, 9, 4, 1)])
+def test_tapered_spans_cover_the_rows_and_shrink_towards_the_end(first, last, size, parts, smallest):
+    """Contiguous spans over exactly first..last-1, none above `size`, none below `smallest`
+    but the last, none above 1/parts of the rows still left (or `smallest`): they never grow,
+    and whichever worker takes the last finishes soon after the others."""
+    from patchlight.rays.tracer import tapered_spans
+
+    cut = tapered_spans(first, last, size, parts, smallest)
+    assert [a for a, _ in cut[1:]] == [b for _, b in cut[:-1]]
+    assert (cut[0][0], cut[-1][1]) == (first, last) if cut else first == last
+    lengths = [b - a for a, b in cut]
+    assert all(0 < n <= size for n in lengths) and all(n >= smallest for n in lengths[:-1])
+    assert all(b - a <= max(smallest, -(-(last - a) // parts)) for a, b in cut)
+    assert lengths == sorted(lengths, reverse=True)
+    if last - first >= parts * size:
+        assert lengths[0] == size and len(cut) < (last - first) // size + parts * 8

@@ -17,7 +17,7 @@ import numpy as np
 from ..atlas.patches import Patches
 from ..rays.hemisphere import hemisphere_rays
 from ..rays.inside import back_faces, back_share, two_sided_triangles
-from ..rays.tracer import Tracer, spans
+from ..rays.tracer import Tracer, tapered_spans
 from ..scene.model import Scene
 from . import _kernels
 from ._kernels import BACK_FACE, LOST, SKY  # what a ray of the item buffer saw, beside a patch id
@@ -26,6 +26,7 @@ from .hemicube import multiplier_map, stratified_directions
 
 FLOAT32_REACH = 1e-5      # relative lift that clears float32 rounding of hit points (2^-24 ~ 6e-8)
 RAYS_PER_CHUNK = 1 << 16  # one task: ray generation, trace and item buffer on one core
+LAST_CHUNK_RAYS = 1 << 13  # the smallest a call's tapering chunks get
 PROBE_RAYS = 16           # cosine rays that first test whether a patch lies inside geometry
 
 
@@ -123,8 +124,12 @@ class Gatherer:
         return len(self.dirs)
 
     def _chunks(self, rows: np.ndarray, rays_per_patch: int | None = None) -> list[np.ndarray]:
-        per_chunk = max(1, RAYS_PER_CHUNK // (rays_per_patch or self.rays_per_patch))
-        return [rows[first:last] for first, last in spans(0, len(rows), per_chunk)]
+        """`rows` in chunks of at most RAYS_PER_CHUNK rays, tapering (`tapered_spans`) to
+        LAST_CHUNK_RAYS: both cores finish a gather's (or probe's) call together."""
+        per_patch = rays_per_patch or self.rays_per_patch
+        cut = tapered_spans(0, len(rows), max(1, RAYS_PER_CHUNK // per_patch), 2 * self.tracer.threads,
+                            max(1, LAST_CHUNK_RAYS // per_patch))
+        return [rows[first:last] for first, last in cut]
 
     def probe_back_fraction(self, rows: np.ndarray) -> np.ndarray:
         """(R,) share of PROBE_RAYS cosine rays from each patch of `rows` that hit back faces:

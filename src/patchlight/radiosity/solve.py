@@ -17,6 +17,8 @@ from .gather import Gatherer, PanelRows
 
 
 ROWS_PER_BLOCK = 1 << 14  # patches gathered at a time, kept as one PanelBlock (at most 2^16 rows)
+MIN_SPLIT_ROWS = 1 << 10  # rows gathered at once go to two blocks a core, down to blocks of this size: a product
+                          # multiplies each run of blocks on one core (the sampler's first grid was one block)
 RUN_BLOCKS = 4  # blocks one product task multiplies panel by panel (`BlockRun`): a fifth less CPU than 1, as 5; 10 lost it
 
 
@@ -48,7 +50,8 @@ class FormFactors:
 
     def add(self, rows: np.ndarray, progress=None) -> np.ndarray:
         """Gather patches `rows`; returns their share of rays that hit back faces."""
-        back = [self._add_block(rows[s:s + ROWS_PER_BLOCK], progress) for s in range(0, len(rows), ROWS_PER_BLOCK)]
+        size = min(ROWS_PER_BLOCK, max(MIN_SPLIT_ROWS, -(-len(rows) // (2 * self.gatherer.tracer.threads))))
+        back = [self._add_block(rows[s:s + size], progress) for s in range(0, len(rows), size)]
         return np.concatenate(back) if back else np.zeros(0, np.float32)
 
     def _add_block(self, rows: np.ndarray, progress) -> np.ndarray:
@@ -74,7 +77,10 @@ class FormFactors:
         if k >= len(self.blocks):
             return np.zeros((0, 3), np.float32)
         B = np.ascontiguousarray(B, np.float32)
-        return np.concatenate(self.gatherer.tracer.map(lambda run: run.times(B), self._runs_from(k)))[first - ends[k]:]
+        runs = self._runs_from(k)
+        largest_first = sorted(range(len(runs)), key=lambda i: -runs[i].entries)  # the cores then end together
+        parts = dict(zip(largest_first, self.gatherer.tracer.map(lambda i: runs[i].times(B), largest_first)))
+        return np.concatenate([parts[i] for i in range(len(runs))])[first - ends[k]:]
 
     def _runs_from(self, k: int) -> list[BlockRun]:
         """The product's tasks over blocks k.. (`_runs`), made once while the blocks stay the same."""
@@ -175,6 +181,7 @@ class BlockRun:
 
     def __init__(self, blocks: list[PanelBlock]):
         self._blocks = blocks
+        self.entries = sum(len(block.entries) for block in blocks)
         self._lists = (*(_kernels.address_table([getattr(b, name) for b in blocks])
                          for name in ("starts", "entries", "weights")),
                        np.float32([b.unit for b in blocks]),

@@ -70,6 +70,19 @@ def spans(first: int, last: int, size: int | None = None) -> list[tuple[int, int
     return [(s, min(s + size, last)) for s in range(first, last, size)]
 
 
+def tapered_spans(first: int, last: int, size: int, parts: int, smallest: int = 1) -> list[tuple[int, int]]:
+    """Rows first..last-1 as spans of at most `size` rows that taper towards the end, each
+    1/parts of the rows still left (and at least `smallest`): workers taking them in order
+    (`Tracer.map`) finish nearly together, where equal spans leave all but one waiting on
+    the last (a guided schedule; parts = 2 x threads). For tasks whose rows are independent."""
+    out, start = [], first
+    while start < last:
+        stop = min(start + min(size, max(smallest, -(-(last - start) // parts))), last)
+        out.append((start, stop))
+        start = stop
+    return out
+
+
 def _threads() -> int:
     return max(1, int(os.environ.get("PATCHLIGHT_THREADS", os.cpu_count() or 1)))
 
