@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -161,6 +162,35 @@ def test_xatlas_child_dies_with_its_parent(tmp_path):
     else:
         raise AssertionError("the xatlas child outlived its parent")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_while_xatlas_runs_ends_its_child_too():
+    """SIGINT to the whole process group while a (hanging) xatlas child runs, as a terminal's
+    Ctrl-C sends it: the child ignores it, the parent stops at once and kills and reaps its
+    child on the way out."""
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); from atlas_meshes import cube_scene\n"
+              "from patchlight.atlas.uvs import ensure_lightmap_uvs; ensure_lightmap_uvs(cube_scene())")
+    env = {**os.environ, "PATCHLIGHT_XATLAS_CHILD_HANG": "1"}
+    parent = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent)], env=env,
+                              stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        child = None
+        for _ in range(600):  # up to 60 s on a busy machine
+            children = Path(f"/proc/{parent.pid}/task/{parent.pid}/children").read_text().split()
+            if children:
+                child = int(children[0])
+                break
+            time.sleep(0.1)
+        assert child is not None, "no xatlas child started"
+        time.sleep(0.5)  # the child has set its signals before it pauses
+        os.killpg(parent.pid, signal.SIGINT)
+        _, err = parent.communicate(timeout=30)
+    finally:
+        if parent.poll() is None:
+            os.killpg(parent.pid, signal.SIGKILL)
+            parent.wait()
+    assert parent.returncode != 0 and b"KeyboardInterrupt" in err
+    assert not Path(f"/proc/{child}").exists()  # killed and reaped, not a zombie
 
 
 def test_vertex_arrays_are_split_consistently():
