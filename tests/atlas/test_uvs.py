@@ -135,26 +135,30 @@ def test_huge_coordinates_reach_xatlas_normalised(scale):
     assert huge[3]["texels_per_unit"] == pytest.approx(small[3]["texels_per_unit"] / scale, rel=1e-5)
 
 
+def _hanging_xatlas(env: dict, **popen) -> tuple[subprocess.Popen, int]:
+    """A Python process packing a cube with xatlas, whose child hangs, and the child's pid
+    once it has set its signals."""
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); from atlas_meshes import cube_scene\n"
+              "from patchlight.atlas.uvs import ensure_lightmap_uvs; ensure_lightmap_uvs(cube_scene())")
+    parent = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent)],
+                              env={**os.environ, **env, "PATCHLIGHT_XATLAS_CHILD_HANG": "1"}, **popen)
+    for _ in range(600):  # up to 60 s on a busy machine
+        children = Path(f"/proc/{parent.pid}/task/{parent.pid}/children").read_text().split()
+        if children:
+            time.sleep(0.5)  # the child has set its parent-death signal and SIGINT's before it pauses
+            return parent, int(children[0])
+        time.sleep(0.1)
+    parent.kill()
+    parent.wait()
+    raise AssertionError("no xatlas child started")
+
+
 def test_xatlas_child_dies_with_its_parent(tmp_path):
     """SIGKILL the process waiting for a (hanging) xatlas child: the kernel kills the child
     too, and no temporary folder of it remains."""
-    script = ("import sys; sys.path.insert(0, sys.argv[1]); from atlas_meshes import cube_scene\n"
-              "from patchlight.atlas.uvs import ensure_lightmap_uvs; ensure_lightmap_uvs(cube_scene())")
-    env = {**os.environ, "PATCHLIGHT_XATLAS_CHILD_HANG": "1", "TMPDIR": str(tmp_path)}
-    parent = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent)], env=env)
-    try:
-        child = None
-        for _ in range(600):  # up to 60 s on a busy machine
-            children = Path(f"/proc/{parent.pid}/task/{parent.pid}/children").read_text().split()
-            if children:
-                child = int(children[0])
-                break
-            time.sleep(0.1)
-        assert child is not None, "no xatlas child started"
-        time.sleep(0.5)  # the child has set its parent-death signal before it pauses
-    finally:
-        parent.kill()
-        parent.wait()
+    parent, child = _hanging_xatlas({"TMPDIR": str(tmp_path)})
+    parent.kill()
+    parent.wait()
     for _ in range(100):
         if not Path(f"/proc/{child}").exists() or "Z" in Path(f"/proc/{child}/stat").read_text().split()[2]:
             break
@@ -168,21 +172,8 @@ def test_ctrl_c_while_xatlas_runs_ends_its_child_too():
     """SIGINT to the whole process group while a (hanging) xatlas child runs, as a terminal's
     Ctrl-C sends it: the child ignores it, the parent stops at once and kills and reaps its
     child on the way out."""
-    script = ("import sys; sys.path.insert(0, sys.argv[1]); from atlas_meshes import cube_scene\n"
-              "from patchlight.atlas.uvs import ensure_lightmap_uvs; ensure_lightmap_uvs(cube_scene())")
-    env = {**os.environ, "PATCHLIGHT_XATLAS_CHILD_HANG": "1"}
-    parent = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent)], env=env,
-                              stderr=subprocess.PIPE, start_new_session=True)
+    parent, child = _hanging_xatlas({}, stderr=subprocess.PIPE, start_new_session=True)
     try:
-        child = None
-        for _ in range(600):  # up to 60 s on a busy machine
-            children = Path(f"/proc/{parent.pid}/task/{parent.pid}/children").read_text().split()
-            if children:
-                child = int(children[0])
-                break
-            time.sleep(0.1)
-        assert child is not None, "no xatlas child started"
-        time.sleep(0.5)  # the child has set its signals before it pauses
         os.killpg(parent.pid, signal.SIGINT)
         _, err = parent.communicate(timeout=30)
     finally:
