@@ -379,7 +379,7 @@ def _run_in_child(work, timeout: float) -> bytes:
             status = 0
         except SystemExit as stop:
             os.write(2, f"{stop}\n".encode(errors="replace"))
-        except BaseException as error:  # noqa: B036 - whatever happens, the child must exit here
+        except BaseException as error:  # whatever happens, the child exits here
             os.write(2, f"{type(error).__name__}: {error}\n".encode(errors="replace"))
         finally:
             os._exit(status)
