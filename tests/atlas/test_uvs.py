@@ -244,3 +244,20 @@ def test_the_density_search_repacks_the_first_charts_as_xatlas_packs_them_afresh
 
     repacked, anew = (np.percentile(stretch(p), [50, 90, 100]) for p in (packing, fresh))
     assert (repacked <= 1.01 * anew).all(), (repacked, anew)
+
+
+def test_a_child_that_cannot_start_falls_back_with_one_warning(monkeypatch):
+    """fork refused (no memory, no process left): the planar packer takes over, one warning
+    says why, and the pipes made for the child are closed again."""
+    def refuse():
+        raise OSError(12, "Cannot allocate memory")
+
+    monkeypatch.setattr(uvs.os, "fork", refuse)
+    fds = len(os.listdir("/proc/self/fd"))
+    source = cube_scene()
+    scene, width, height, info = ensure_lightmap_uvs(source, texels_per_unit=16)
+    assert info["uv_source"] == "fallback"
+    assert info["warnings"] == ["xatlas's process could not start (Cannot allocate memory); "
+                                "used the simple planar-chart packer"]
+    assert len(os.listdir("/proc/self/fd")) == fds
+    check_atlas(source, scene, width, height, padding=2)

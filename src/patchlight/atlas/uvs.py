@@ -354,7 +354,8 @@ def _xatlas_in_child(scene, texels_per_unit, resolution, padding):
 
 def _run_in_child(work, timeout: float) -> bytes:
     """What work() -> bytes returns, run in a forked child process that may crash, hang or
-    fail without harm to this one: raises _XatlasFailed saying how it ended otherwise. The
+    fail without harm to this one: raises _XatlasFailed saying how it ended otherwise, or
+    that it could not start. The
     child inherits what this process has imported (a fresh interpreter took 0.1 s to import
     NumPy and xatlas), writes its result into a pipe and its output into another, ignores
     Ctrl-C (this process handles it, and kills the child) and is killed by the kernel if this
@@ -362,7 +363,12 @@ def _run_in_child(work, timeout: float) -> bytes:
     parent = os.getpid()
     result_read, result_write = os.pipe()
     output_read, output_write = os.pipe()
-    pid = os.fork()
+    try:
+        pid = os.fork()
+    except OSError as error:  # no memory or no process left for a child
+        for fd in (result_read, result_write, output_read, output_write):
+            os.close(fd)
+        raise _XatlasFailed(f"xatlas's process could not start ({error.strerror or error})") from None
     if pid == 0:  # the child: never returns
         status = 1
         try:

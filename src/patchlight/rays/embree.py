@@ -152,9 +152,9 @@ class TriangleBvh:
         return self._checked(occluded_rays(self._api.occluded16, self.scene, origins, directions, tmax))
 
     def occluding(self, kernel, *args):
-        """kernel(occluded16, scene, *args): a nopython kernel that makes shadow rays and
-        traces them itself in packets (`occlude_packet`), Embree's errors raised as for
-        `occluded`."""
+        """kernel(occluded16, scene, *args): a function whose nopython kernel makes shadow
+        rays and traces them itself in packets (`occlude_packet`) through rtcOccluded16 at
+        address occluded16; its result, Embree's errors raised as for `occluded`."""
         return self._checked(kernel(self._api.occluded16, self.scene, *args))
 
     def _checked(self, result):

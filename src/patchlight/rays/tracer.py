@@ -207,9 +207,9 @@ class Tracer:
 
     def occluding(self, kernel, *args):
         """kernel(occluded16, scene, *args) -> (result, rays traced), run on the calling
-        thread: a nopython kernel that makes its own shadow rays and traces them in packets as
-        it goes (`embree.occlude_packet`), no ray arrays between. Its rays are counted as
-        `occluded_chunk`'s are; returns its result."""
+        thread: a function whose nopython kernel makes its own shadow rays and traces them in
+        packets as it goes (`embree.occlude_packet`), no ray arrays between. Its rays are
+        counted as `occluded_chunk`'s are; returns its result."""
         result, rays = self._ready().occluding(kernel, *args)
         self._count(rays)
         return result
