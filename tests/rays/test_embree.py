@@ -150,3 +150,37 @@ def test_an_error_embree_reports_while_tracing_is_raised(scenes, monkeypatch):
         bvh.closest(origins, directions)
     with pytest.raises(PatchlightError, match="error 3"):
         bvh.occluded(origins, directions, np.ones(20, np.float32))
+
+
+EXIT_HANDLERS_WHILE_TRACING = """
+import atexit, os, threading, time
+import numpy as np
+from patchlight.rays.embree import TriangleBvh
+bvh = TriangleBvh(np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1]], np.float32), np.array([[0, 1, 2]], np.int32))
+n = 1 << 16
+o = np.zeros((n, 3), np.float32) + np.float32([0.2, 0.2, 0])
+d = np.zeros((n, 3), np.float32) + np.float32([0, 0, 1])
+hits, stop = [], time.monotonic() + 1.0
+def trace():
+    while time.monotonic() < stop:
+        hits.append(int((bvh.closest(o, d)[0] == 0).sum()))
+worker = threading.Thread(target=trace)
+worker.start()
+time.sleep(0.2)
+atexit._run_exitfuncs()
+worker.join()
+print("hits", min(hits), flush=True)
+os._exit(0)
+"""
+
+
+def test_the_exit_handlers_leave_a_scene_that_a_thread_still_traces():
+    """A stopped command runs the exit handlers, then os._exit (cli.main._end_process), while a
+    pool thread may still be tracing: the scene is not released there (it was, and the
+    thread crashed the process with SIGSEGV after "interrupted")."""
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", EXIT_HANDLERS_WHILE_TRACING], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0 and run.stdout.split() == ["hits", str(1 << 16)], (run.returncode, run.stderr)

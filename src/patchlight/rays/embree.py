@@ -105,7 +105,8 @@ class _Api:
 
 class TriangleBvh:
     """One Embree scene of a triangle soup, built at construction: positions (V, 3) f32,
-    indices (T, 3) i32 (ids of the hits index `indices`). Released when garbage-collected."""
+    indices (T, 3) i32 (ids of the hits index `indices`). Released when garbage-collected, not
+    at exit."""
 
     def __init__(self, positions: np.ndarray, indices: np.ndarray):
         api = _Api.get()
@@ -115,6 +116,7 @@ class TriangleBvh:
             raise PatchlightError("Embree could not start (rtcNewDevice failed)")
         scene = api.new_scene(device)
         self._release = weakref.finalize(self, _release, api, device, scene)
+        self._release.atexit = False  # run by the exit handlers, it crashed a pool thread still tracing in it
         geometry = scene and api.new_geometry(device, GEOMETRY_TRIANGLE)
         if not geometry:
             raise PatchlightError(f"Embree could not make a scene (error {api.device_error(device)})")
